@@ -1,0 +1,1 @@
+"""Boards: the one seam between the flight core and the world (sim, linux, rp2)."""

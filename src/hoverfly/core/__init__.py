@@ -1,0 +1,1 @@
+"""The portable flight core: stages of the pass, tasks, parameters (MicroPython-safe)."""

@@ -1,0 +1,1 @@
+"""Register-level sensor drivers over a bus object (MicroPython-safe)."""

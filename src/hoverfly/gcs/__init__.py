@@ -1,0 +1,1 @@
+"""Ground station (CPython)."""

@@ -1,0 +1,1 @@
+"""Flight-log tools (CPython): readers, reports, plots, replay."""

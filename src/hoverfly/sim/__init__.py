@@ -1,0 +1,1 @@
+"""The simulator (CPython): physics, airframes, sensor models, scenarios and pilots."""
