@@ -14,7 +14,8 @@ def test_ticks_diff_is_signed_across_the_wrap():
 def test_ticks_add_wraps_to_the_period():
     assert ticks_add(TICKS_MAX, 1) == 0
     assert ticks_add(0, -1) == TICKS_MAX
-    assert ticks_add(5, TICKS_PERIOD) == 5
+    assert ticks_add(TICKS_MAX - 4, 10) == 5
+    assert ticks_diff(ticks_add(7, TICKS_PERIOD >> 2), 7) == TICKS_PERIOD >> 2
 
 
 def test_crc8_check_values_from_the_catalogue():
