@@ -1,0 +1,65 @@
+"""`hoverfly fly`: fly a scenario on the simulator and judge the flight."""
+
+import json
+import sys
+
+from hoverfly.errors import UserError
+
+
+def _parse_set(items):
+    pairs = []
+    for item in items or ():
+        if "=" not in item:
+            raise UserError("--set expects name=value, got '%s'" % item)
+        name, value = item.split("=", 1)
+        pairs.append((name.strip(), value.strip()))
+    return pairs
+
+
+def run_fly(args):
+    from hoverfly.sim.runner import fly
+
+    if args.seed < 0:
+        raise UserError("--seed must be 0 or more")
+    result = fly(args.scenario, args.airframe, args.seed, _parse_set(args.set), args.duration, args.realtime)
+    if args.json:
+        json.dump(result, sys.stdout)
+        sys.stdout.write("\n")
+    else:
+        print(summary(result))
+    return 0
+
+
+def summary(r):
+    alt = r["altitude_m"]
+    lines = [
+        "%s on %s (seed %d): %.1f s flown in %.2f s wall (%.0fx real time), loop %d Hz"
+        % (r["scenario"], r["airframe"], r["seed"], r["sim_time_s"], r["wall_time_s"],
+           r["realtime_factor"] or 0, r["loop_hz"]),
+        "  %s, ended %s; tilt RMS %.2f deg (max %.1f); altitude %.2f..%.2f m, final %.2f m; drift %.2f m"
+        % ("CRASHED" if r["crashed"] else "no crash", "armed" if r["armed"] else "disarmed", r["tilt_rms_deg"],
+           r["max_tilt_deg"], alt["min"], alt["max"], alt["final"], r["horizontal_drift_m"]),
+    ]
+    for s in r["steps"]:
+        lines.append("  step %s %s %g->%g %s: rise %s ms, 90%% at %s ms, overshoot %.1f %%, settle %s ms, error %s"
+                     % (s["axis"], s["mode"], s["from"], s["to"], s["unit"], s["rise_ms"], s["t90_ms"],
+                        s["overshoot_pct"], s["settle_ms"], s["steady_error"]))
+    ev = ", ".join("%s %s@%.2fs" % (e["event"], e["detail"], e["t_s"]) for e in r["events"]
+                   if e["event"] not in ("mode", "airmode"))
+    lines.append("  events: " + ev)
+    lp = r["loop"]
+    lines.append("  flight loop: %.1f us mean, %.0f us max, %d overruns" % (lp["mean_us"], lp["max_us"],
+                                                                            lp["overruns"]))
+    return "\n".join(lines)
+
+
+def register(sub):
+    p = sub.add_parser("fly", help="fly a scenario on the simulator (default: the demo on the 5inch)")
+    p.add_argument("--airframe", default="5inch", help="built-in airframe name or a .toml file")
+    p.add_argument("--scenario", default="demo", help="built-in scenario name or a .toml file")
+    p.add_argument("--duration", type=float, default=None, help="seconds to fly (default: the scenario's)")
+    p.add_argument("--seed", type=int, default=1, help="random seed for sensor noise")
+    p.add_argument("--set", action="append", metavar="NAME=VALUE", help="override a parameter for this flight")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument("--realtime", action="store_true", help="pace the flight to the wall clock")
+    p.set_defaults(func=run_fly)

@@ -1,0 +1,231 @@
+"""The one parameter table, and the live set of values read by every stage's configure().
+
+Each row: name (snake_case, <= 16 chars, Betaflight's where one fits), default, min, max,
+unit, applies (LIVE or REBOOT), one-line help. A row whose default is a string is a
+choice: its `unit` field is the tuple of allowed words. Storage, CLI, MSP, the maintenance
+protocol, the ground station and the docs all read this table; no other file holds a
+default, a range or a list of names.
+
+Gains keep Betaflight's scales so a Betaflight tune is a sane start; stages convert them
+to SI once, in configure().
+"""
+
+LIVE = 0
+REBOOT = 1
+
+FRAMES = ("quadx", "quadx_seed000", "quadp", "hexx", "tri")
+MODES = ("acro", "angle", "horizon")
+FILTER_TYPES = ("pt1", "pt2", "biquad")
+TPA_MODES = ("pd", "d")
+ESTIMATORS = ("mahony", "external")
+FAILSAFE_PROCEDURES = ("drop", "land", "glide")
+
+# fmt: off
+#  name               default   min     max      unit           applies  help
+PARAMS = (
+    # --- loop, frame and motors
+    ("loop_hz",           1000,  100,    8000,   "Hz",          REBOOT, "flight-loop (gyro + PID) rate"),
+    ("mixer_type",      "quadx",   0,      0,    FRAMES,        REBOOT, "frame and motor order (quadx = Betaflight order)"),
+    ("motor_idle_pct",     5.5,  0.0,    20.0,   "%",           LIVE,   "motor output when armed at zero throttle"),
+    ("motor_max_pct",    100.0, 50.0,   100.0,   "%",           LIVE,   "highest motor output"),
+    ("airmode",              1,    0,       1,   "",            LIVE,   "keep full PID authority at zero throttle"),
+    ("yaw_motors_rev",       0,    0,       1,   "",            REBOOT, "props-in: reverse the yaw mix"),
+    ("tri_servo_deg", 40.0,  5.0,    60.0,   "deg",         LIVE,   "tri: tail servo travel for full yaw"),
+    # --- gyro and accelerometer
+    ("gyro_lpf1_type",   "pt1",    0,      0,    FILTER_TYPES,  LIVE,   "gyro low-pass 1 type"),
+    ("gyro_lpf1_hz",       250,    0,    1000,   "Hz",          LIVE,   "gyro low-pass 1 cutoff, 0 = off"),
+    ("gyro_lpf2_hz",       500,    0,    1000,   "Hz",          LIVE,   "gyro low-pass 2 (PT1) cutoff, 0 = off"),
+    ("gyro_notch1_hz",       0,    0,    1000,   "Hz",          LIVE,   "gyro notch centre, 0 = off"),
+    ("gyro_notch1_cut",      0,    0,    1000,   "Hz",          LIVE,   "gyro notch lower cutoff (sets its width)"),
+    ("acc_lpf_hz",          25,    0,     500,   "Hz",          LIVE,   "accelerometer low-pass (PT2) for the estimator, 0 = off"),
+    ("gyro_cal_ms",       1000,  100,   10000,   "ms",          LIVE,   "boot gyro calibration: still time averaged"),
+    ("gyro_cal_dps",       4.0,  0.5,    50.0,   "deg/s",       LIVE,   "boot gyro calibration: motion that restarts it"),
+    ("acc_trim_roll",      0.0, -10.0,   10.0,   "deg",         LIVE,   "accelerometer trim, roll"),
+    ("acc_trim_pitch",     0.0, -10.0,   10.0,   "deg",         LIVE,   "accelerometer trim, pitch"),
+    ("board_roll_deg",     0.0, -180.0, 180.0,   "deg",         REBOOT, "board alignment: roll of the IMU in the frame"),
+    ("board_pitch_deg",    0.0, -180.0, 180.0,   "deg",         REBOOT, "board alignment: pitch of the IMU in the frame"),
+    ("board_yaw_deg",      0.0, -180.0, 180.0,   "deg",         REBOOT, "board alignment: yaw of the IMU in the frame"),
+    # --- attitude estimator (Mahony)
+    ("estimator",     "mahony",    0,      0,    ESTIMATORS,    REBOOT, "attitude source: mahony filter or the IMU's own fusion"),
+    ("imu_dcm_kp",         300,    0,   50000,   "1e-4/s",      LIVE,   "accelerometer correction gain (x10 while disarmed)"),
+    ("imu_dcm_ki",           0,    0,   50000,   "1e-4/s2",     LIVE,   "gyro-bias integral gain, Betaflight scale"),
+    ("small_angle",         25,    0,     180,   "deg",         LIVE,   "largest tilt that may arm"),
+    # --- rate PID (Betaflight scales)
+    ("p_roll",              45,    0,     250,   "",            LIVE,   "roll rate P"),
+    ("i_roll",              80,    0,     250,   "",            LIVE,   "roll rate I"),
+    ("d_roll",              40,    0,     250,   "",            LIVE,   "roll rate D (on measurement)"),
+    ("f_roll",             120,    0,    1000,   "",            LIVE,   "roll feed-forward (setpoint change)"),
+    ("p_pitch",             47,    0,     250,   "",            LIVE,   "pitch rate P"),
+    ("i_pitch",             84,    0,     250,   "",            LIVE,   "pitch rate I"),
+    ("d_pitch",             46,    0,     250,   "",            LIVE,   "pitch rate D (on measurement)"),
+    ("f_pitch",            125,    0,    1000,   "",            LIVE,   "pitch feed-forward (setpoint change)"),
+    ("p_yaw",               45,    0,     250,   "",            LIVE,   "yaw rate P"),
+    ("i_yaw",               80,    0,     250,   "",            LIVE,   "yaw rate I"),
+    ("d_yaw",                0,    0,     250,   "",            LIVE,   "yaw rate D (on measurement)"),
+    ("f_yaw",              120,    0,    1000,   "",            LIVE,   "yaw feed-forward (setpoint change)"),
+    ("ff_static_pct",      0.0,  0.0,   100.0,   "%",           LIVE,   "PIFF: rate setpoint fed straight to the output"),
+    ("dterm_lpf1_type",  "pt1",    0,      0,    FILTER_TYPES,  LIVE,   "D-term low-pass type"),
+    ("dterm_lpf1_hz",       75,    0,     500,   "Hz",          LIVE,   "D-term low-pass cutoff, 0 = off"),
+    ("iterm_relax",       "rp",    0,      0,    ("off", "rp", "rpy"), LIVE, "I-term relax on these axes while sticks move"),
+    ("iterm_relax_hz",      15,    1,      50,   "Hz",          LIVE,   "I-term relax: setpoint low-pass cutoff"),
+    ("iterm_limit",        400,    0,     500,   "",            LIVE,   "I-term limit, Betaflight PID-sum units"),
+    ("pidsum_limit",       500,  100,    1000,   "",            LIVE,   "roll/pitch PID-sum limit, Betaflight units"),
+    ("pidsum_limit_yaw",   400,  100,    1000,   "",            LIVE,   "yaw PID-sum limit, Betaflight units"),
+    ("tpa_mode",           "d",    0,      0,    TPA_MODES,     LIVE,   "TPA reduces P and D, or D only"),
+    ("tpa_rate",            65,    0,     100,   "%",           LIVE,   "TPA: gain cut at full throttle"),
+    ("tpa_breakpoint",    1350,  750,    2250,   "us",          LIVE,   "TPA: throttle where the cut starts"),
+    # --- rates (Betaflight "actual")
+    ("roll_rc_rate",         7,    1,     255,   "10 deg/s",    LIVE,   "roll centre sensitivity"),
+    ("pitch_rc_rate",        7,    1,     255,   "10 deg/s",    LIVE,   "pitch centre sensitivity"),
+    ("yaw_rc_rate",          7,    1,     255,   "10 deg/s",    LIVE,   "yaw centre sensitivity"),
+    ("roll_srate",          67,    0,     200,   "10 deg/s",    LIVE,   "roll max rate"),
+    ("pitch_srate",         67,    0,     200,   "10 deg/s",    LIVE,   "pitch max rate"),
+    ("yaw_srate",           67,    0,     200,   "10 deg/s",    LIVE,   "yaw max rate"),
+    ("roll_expo",            0,    0,     100,   "%",           LIVE,   "roll expo"),
+    ("pitch_expo",           0,    0,     100,   "%",           LIVE,   "pitch expo"),
+    ("yaw_expo",             0,    0,     100,   "%",           LIVE,   "yaw expo"),
+    # --- angle and horizon (the PIFF shape of seed 002)
+    ("angle_limit",         60,   10,      90,   "deg",         LIVE,   "angle mode: tilt at full stick"),
+    ("angle_p_gain",        50,    0,     200,   "0.1/s",       LIVE,   "angle mode: deg/s of rate per 0.1 deg of error"),
+    ("angle_ff",            50,    0,     200,   "%",           LIVE,   "angle mode: feed-forward of the angle setpoint's speed"),
+    ("angle_rate_limit",   500,   50,    2000,   "deg/s",       LIVE,   "angle mode: largest rate setpoint"),
+    ("horizon_level",   50,    0,     100,   "%",           LIVE,   "horizon: levelling strength at centre stick"),
+    # --- receiver and pilot input
+    ("rc_smoothing_hz",     40,    0,     250,   "Hz",          LIVE,   "setpoint smoothing (PT2), 0 = off"),
+    ("deadband",             5,    0,      32,   "us",          LIVE,   "roll/pitch stick deadband around centre"),
+    ("yaw_deadband",         5,    0,     100,   "us",          LIVE,   "yaw stick deadband around centre"),
+    ("min_check",         1050,  750,    2250,   "us",          LIVE,   "throttle below this counts as low"),
+    ("map_aetr",        "AETR",    0,      0,    ("AETR", "TAER", "RETA"), LIVE, "channel order of the first four"),
+    ("arm_ch",               5,    0,      18,   "ch",          LIVE,   "arm switch channel (AUX1 = 5), 0 = none"),
+    ("arm_min_us",        1700,  900,    2100,   "us",          LIVE,   "arm switch range start"),
+    ("arm_max_us",        2100,  900,    2100,   "us",          LIVE,   "arm switch range end"),
+    ("angle_ch",             6,    0,      18,   "ch",          LIVE,   "angle mode switch channel, 0 = none"),
+    ("angle_min_us",      1300,  900,    2100,   "us",          LIVE,   "angle mode range start"),
+    ("angle_max_us",      2100,  900,    2100,   "us",          LIVE,   "angle mode range end"),
+    ("horizon_ch",           6,    0,      18,   "ch",          LIVE,   "horizon mode switch channel, 0 = none"),
+    ("horizon_min_us",    1300,  900,    2100,   "us",          LIVE,   "horizon mode range start"),
+    ("horizon_max_us",    1700,  900,    2100,   "us",          LIVE,   "horizon mode range end (takes priority over angle)"),
+    # --- arming and failsafe
+    ("disarm_frames",        5,    1,      50,   "frames",      LIVE,   "switch must read disarm this many frames in a row"),
+    ("boot_grace_ms",     1000,    0,   30000,   "ms",          LIVE,   "no arming this long after boot"),
+    ("airmode_thr_pct",   25,    0,     100,   "%",           LIVE,   "air mode and I-term start once throttle passes this"),
+    ("imu_stale_ms",        20,    2,     500,   "ms",          LIVE,   "no IMU sample this long = IMU fault"),
+    ("rx_timeout_ms",      100,   20,    1000,   "ms",          LIVE,   "no good frame this long = link lost"),
+    ("fs_delay_ms",  400,    0,   10000,   "ms",          LIVE,   "stage 1 (hold, levelled) lasts this long"),
+    ("fs_procedure", "land", 0,      0,    FAILSAFE_PROCEDURES, LIVE, "stage 2: drop, land or glide"),
+    ("fs_throttle", 1300, 1000,    2000,   "us",          LIVE,   "throttle while failsafe lands"),
+    ("fs_land_max_ms",   20000, 1000,  120000,   "ms",          LIVE,   "failsafe landing disarms after this at the latest"),
+)
+# fmt: on
+
+_NAME = 0
+_DEFAULT = 1
+_MIN = 2
+_MAX = 3
+_UNIT = 4
+
+
+def _index():
+    index = {}
+    for i, row in enumerate(PARAMS):
+        index[row[_NAME]] = i
+    return index
+
+
+INDEX = _index()
+
+
+def row(name):
+    """The table row for `name`, or None."""
+    i = INDEX.get(name)
+    return None if i is None else PARAMS[i]
+
+
+def is_choice(r):
+    return isinstance(r[_DEFAULT], str)
+
+
+def check_value(name, value):
+    """(value, None) if `value` may be stored under `name` (converted), else (None, reason)."""
+    r = row(name)
+    if r is None:
+        return None, "unknown parameter '%s'" % name
+    if is_choice(r):
+        choices = r[_UNIT]
+        if isinstance(value, str):
+            for c in choices:
+                if c.lower() == value.lower():
+                    return c, None
+        elif isinstance(value, int) and not isinstance(value, bool) and 0 <= value < len(choices):
+            return choices[value], None
+        return None, "%s must be one of %s" % (name, ", ".join(choices))
+    lo = r[_MIN]
+    hi = r[_MAX]
+    if isinstance(value, str):
+        try:
+            value = float(value) if isinstance(r[_DEFAULT], float) else int(value)
+        except ValueError:
+            try:
+                value = float(value)
+            except ValueError:
+                return None, "%s must be a number from %s to %s" % (name, lo, hi)
+    if isinstance(value, bool):
+        value = int(value)
+    if isinstance(r[_DEFAULT], int):
+        if isinstance(value, float):
+            if value != int(value):
+                return None, "%s must be a whole number from %d to %d" % (name, lo, hi)
+            value = int(value)
+    else:
+        value = float(value)
+    if value != value or value < lo or value > hi:
+        return None, "%s = %s is out of range %s .. %s" % (name, value, lo, hi)
+    return value, None
+
+
+class Params:
+    """The live values, keyed by name; starts from the table's defaults."""
+
+    def __init__(self):
+        self.values = {}
+        self.changed = 0  # bumped on every accepted write; stages re-read on change
+        self.reset()
+
+    def reset(self):
+        for r in PARAMS:
+            self.values[r[_NAME]] = r[_DEFAULT]
+        self.changed += 1
+
+    def get(self, name):
+        return self.values[name]
+
+    def set(self, name, value):
+        """Store `value`; returns None on success or the one-line reason it was refused."""
+        value, err = check_value(name, value)
+        if err is not None:
+            return err
+        self.values[name] = value
+        self.changed += 1
+        return None
+
+    def update(self, pairs):
+        """Set several (name, value) pairs; all or nothing. Returns None or the first reason."""
+        checked = []
+        for name, value in pairs:
+            v, err = check_value(name, value)
+            if err is not None:
+                return err
+            checked.append((name, v))
+        for name, v in checked:
+            self.values[name] = v
+        self.changed += 1
+        return None
+
+    def diff(self):
+        """(name, value) for every value that differs from its default, in table order."""
+        out = []
+        for r in PARAMS:
+            v = self.values[r[_NAME]]
+            if v != r[_DEFAULT]:
+                out.append((r[_NAME], v))
+        return out

@@ -1,0 +1,135 @@
+"""Pilot input: receiver channels in µs to sticks, throttle, switches and the setpoint.
+
+A new frame (`new_frame`) maps channels (AETR by default), applies the deadband and
+reads the AUX mode ranges (Betaflight style: channel plus µs range per mode). Every
+pass (`update`) smooths the sticks (PT2 at rc_smoothing_hz) and turns them into the
+setpoint: rates through the "actual" curve, angles through angle_limit. Stage 3 of the
+pass, with the commander choosing whose input it is.
+"""
+
+import math
+
+from hoverfly.core.control import MODE_ACRO, MODE_ANGLE, MODE_HORIZON
+from hoverfly.core.filters import Pt2
+from hoverfly.core.rates import ActualRates
+
+_DEG = math.pi / 180.0
+
+_MAPS = {"AETR": (0, 1, 3, 2), "TAER": (1, 2, 3, 0), "RETA": (3, 2, 1, 0)}  # roll, pitch, yaw, throttle
+
+
+def _in_range(channels_us, ch, lo, hi):
+    if ch <= 0 or ch > len(channels_us):
+        return False
+    v = channels_us[ch - 1]
+    return lo <= v < hi
+
+
+class RcInput:
+    def __init__(self):
+        self.rates = (ActualRates(), ActualRates(), ActualRates())
+        self.filters = (Pt2(), Pt2(), Pt2(), Pt2())
+        self.roll_ch = 0
+        self.pitch_ch = 1
+        self.yaw_ch = 3
+        self.throttle_ch = 2
+        self.deadband_us = 5
+        self.yaw_deadband_us = 5
+        self.min_check_us = 1050
+        self.angle_limit_rad = 60.0 * _DEG
+        # latest frame, before smoothing
+        self.stick_raw = [0.0, 0.0, 0.0]
+        self.throttle_raw = 0.0
+        self.throttle_us = 1000
+        self.arm_switch = False
+        self.mode = MODE_ACRO
+        self.frames = 0
+        self._arm = (5, 1700, 2100)
+        self._angle = (6, 1300, 2100)
+        self._horizon = (6, 1300, 1700)
+
+    def configure(self, params, loop_hz):
+        rc = (("roll_rc_rate", "roll_srate", "roll_expo"), ("pitch_rc_rate", "pitch_srate", "pitch_expo"),
+              ("yaw_rc_rate", "yaw_srate", "yaw_expo"))
+        for axis in range(3):
+            names = rc[axis]
+            self.rates[axis].configure(params.get(names[0]), params.get(names[1]), params.get(names[2]))
+        for f in self.filters:
+            f.configure(params.get("rc_smoothing_hz"), loop_hz)
+        m = _MAPS[params.get("map_aetr")]
+        self.roll_ch = m[0]
+        self.pitch_ch = m[1]
+        self.yaw_ch = m[2]
+        self.throttle_ch = m[3]
+        self.deadband_us = params.get("deadband")
+        self.yaw_deadband_us = params.get("yaw_deadband")
+        self.min_check_us = params.get("min_check")
+        self.angle_limit_rad = params.get("angle_limit") * _DEG
+        self._arm = (params.get("arm_ch"), params.get("arm_min_us"), params.get("arm_max_us"))
+        self._angle = (params.get("angle_ch"), params.get("angle_min_us"), params.get("angle_max_us"))
+        self._horizon = (params.get("horizon_ch"), params.get("horizon_min_us"), params.get("horizon_max_us"))
+
+    def _stick(self, us, deadband):
+        d = us - 1500
+        if d > deadband:
+            d -= deadband
+        elif d < -deadband:
+            d += deadband
+        else:
+            return 0.0
+        v = d / (500.0 - deadband)
+        if v > 1.0:
+            return 1.0
+        if v < -1.0:
+            return -1.0
+        return v
+
+    def new_frame(self, channels_us):
+        """Take one receiver frame (µs per channel)."""
+        self.stick_raw[0] = self._stick(channels_us[self.roll_ch], self.deadband_us)
+        # Pitch stick forward (more µs) means nose down: negative pitch in FRD.
+        self.stick_raw[1] = -self._stick(channels_us[self.pitch_ch], self.deadband_us)
+        self.stick_raw[2] = self._stick(channels_us[self.yaw_ch], self.yaw_deadband_us)
+        t = channels_us[self.throttle_ch]
+        self.throttle_us = t
+        thr = (t - 1000) * 0.001
+        self.throttle_raw = 0.0 if thr < 0.0 else (1.0 if thr > 1.0 else thr)
+        a = self._arm
+        self.arm_switch = _in_range(channels_us, a[0], a[1], a[2])
+        h = self._horizon
+        g = self._angle
+        if _in_range(channels_us, h[0], h[1], h[2]):
+            self.mode = MODE_HORIZON
+        elif _in_range(channels_us, g[0], g[1], g[2]):
+            self.mode = MODE_ANGLE
+        else:
+            self.mode = MODE_ACRO
+        self.frames += 1
+
+    def throttle_low(self):
+        return self.throttle_us < self.min_check_us
+
+    def reset_smoothing(self):
+        for axis in range(3):
+            self.filters[axis].reset(self.stick_raw[axis])
+        self.filters[3].reset(self.throttle_raw)
+
+    def update(self, sp):
+        """Smooth the latest frame into the setpoint (every pass)."""
+        f = self.filters
+        s = sp.stick_norm
+        s[0] = f[0].update(self.stick_raw[0])
+        s[1] = f[1].update(self.stick_raw[1])
+        s[2] = f[2].update(self.stick_raw[2])
+        sp.throttle_norm = f[3].update(self.throttle_raw)
+        self.fill_setpoint(sp)
+
+    def fill_setpoint(self, sp):
+        s = sp.stick_norm
+        r = sp.rate_rad_s
+        rates = self.rates
+        r[0] = rates[0].rate_rad_s(s[0])
+        r[1] = rates[1].rate_rad_s(s[1])
+        r[2] = rates[2].rate_rad_s(s[2])
+        sp.roll_angle_rad = s[0] * self.angle_limit_rad
+        sp.pitch_angle_rad = s[1] * self.angle_limit_rad

@@ -1,0 +1,48 @@
+"""What flows between the stages of the pass: the map of the system.
+
+One instance per flight, preallocated; every name carries its unit and frame. Stages
+read and write these arrays and attributes, never each other.
+"""
+
+from array import array
+
+from hoverfly.core.control import MODE_ANGLE
+from hoverfly.core.estimator import Attitude
+from hoverfly.core.mixer import MAX_MOTORS
+
+
+class Setpoint:
+    """What the pilot (or failsafe, or autopilot) asks for this pass."""
+
+    def __init__(self):
+        self.mode = MODE_ANGLE
+        self.stick_norm = array("f", [0.0, 0.0, 0.0])  # roll, pitch, yaw in -1..1 after smoothing
+        self.rate_rad_s = array("f", [0.0, 0.0, 0.0])  # body rates FRD
+        self.roll_angle_rad = 0.0
+        self.pitch_angle_rad = 0.0
+        self.throttle_norm = 0.0  # collective, 0..1
+
+
+class Signals:
+    def __init__(self):
+        # 1. IMU, body frame FRD
+        self.gyro_raw_rad_s = array("f", [0.0, 0.0, 0.0])  # as the board gave it, aligned
+        self.accel_raw_m_s2 = array("f", [0.0, 0.0, -9.80665])
+        self.gyro_rad_s = array("f", [0.0, 0.0, 0.0])  # bias removed, filtered: what the PID sees
+        self.accel_m_s2 = array("f", [0.0, 0.0, -9.80665])  # filtered: what the estimator sees
+        self.external_q = array("f", [1.0, 0.0, 0.0, 0.0])  # an IMU's own fusion, when it has one
+        # 2. estimator
+        self.attitude = Attitude()
+        # 3. commander
+        self.rc_channels_us = array("H", [1500] * 18)
+        self.setpoint = Setpoint()
+        # 4. controller
+        self.torque_norm = array("f", [0.0, 0.0, 0.0])
+        # 5. mixer and outputs
+        self.motor_norm = array("f", [0.0] * MAX_MOTORS)  # mixer demand 0..1
+        self.motor_out = array("f", [0.0] * MAX_MOTORS)  # to the ESC: 0 = stop, idle..1 when armed
+        self.servo_norm = array("f", [0.0, 0.0, 0.0, 0.0])  # -1..1
+        # power
+        self.battery_v = 0.0
+        self.current_a = 0.0
+        self.mah_drawn = 0.0

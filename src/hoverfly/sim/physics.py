@@ -1,0 +1,306 @@
+"""Rigid-body multirotor physics in plain floats (no numpy per step).
+
+State: position and velocity in NED (m, m/s), attitude quaternion body->NED, body
+rates FRD (rad/s), rotor speeds (rad/s), battery state. Motors are first-order lags
+toward a speed that scales with the loaded battery voltage (thrust ~ V²); thrust
+kT·ω², reaction torque kQ·ω²; quadratic body drag against the air (wind), linear
+angular damping; ArduPilot's ground rule (no contact solver: clamp at the ground,
+level, stop). Semi-implicit Euler at the loop rate, the scheme the reference measured
+at 13.5 µs per step (sim-physics-and-logs.md §4.1).
+
+Motor geometry comes from the mixer table of the chosen frame, so the simulated
+craft and the controller always agree on which motor is where and how it spins.
+"""
+
+import math
+
+from hoverfly.core.mixer import MIXER_TABLES
+
+G_M_S2 = 9.80665
+RHO_KG_M3 = 1.225
+
+
+class Battery:
+    """Cells with a linear-ish open-circuit curve and internal resistance (sag)."""
+
+    # Open-circuit volts per cell against state of charge, 0 %..100 % in 10 % steps (LiPo, typical).
+    _OCV = (3.30, 3.60, 3.69, 3.73, 3.77, 3.81, 3.86, 3.92, 3.99, 4.08, 4.20)
+
+    def __init__(self, cells, capacity_mah, r_int_ohm, soc=1.0):
+        self.cells = cells
+        self.capacity_mah = capacity_mah
+        self.r_int_ohm = r_int_ohm
+        self.soc = soc
+        self.current_a = 0.0
+        self.voltage_v = self.ocv_v()
+        self.mah_drawn = 0.0
+
+    def ocv_v(self):
+        x = self.soc * 10.0
+        if x <= 0.0:
+            return self._OCV[0] * self.cells
+        if x >= 10.0:
+            return self._OCV[10] * self.cells
+        i = int(x)
+        f = x - i
+        return (self._OCV[i] * (1.0 - f) + self._OCV[i + 1] * f) * self.cells
+
+    def step(self, current_a, dt_s):
+        self.current_a = current_a
+        self.voltage_v = self.ocv_v() - current_a * self.r_int_ohm
+        used = current_a * dt_s / 3.6  # mAh
+        self.mah_drawn += used
+        self.soc -= used / self.capacity_mah
+        if self.soc < 0.0:
+            self.soc = 0.0
+
+
+class Vehicle:
+    def __init__(self, airframe, frame):
+        a = airframe
+        self.mass_kg = a["mass_kg"]
+        self.ixx, self.iyy, self.izz = a["inertia_kg_m2"]
+        self.kt = a["kt"]
+        self.kq = a["kq"]
+        self.tau_up_s = a["motor_tau_up_s"]
+        self.tau_down_s = a["motor_tau_down_s"]
+        self.omega_per_volt = a["omega_per_volt"]
+        self.drag_n_per_m2_s2 = a["drag_coef"]
+        self.ang_damping = a.get("angular_damping", 0.0)
+        self.rotor_drag = a.get("rotor_drag_coef", 0.0)
+        self.hover_current_a = 0.0
+        self.idle_current_a = a.get("idle_current_a", 0.5)
+        # Momentum theory: power = T^1.5 / sqrt(2 rho A) / figure of merit / drive efficiency.
+        disc = math.pi * (a["prop_diameter_m"] * 0.5) ** 2
+        self._power_k = 1.0 / (math.sqrt(2.0 * RHO_KG_M3 * disc) * a.get("figure_of_merit", 0.5)
+                               * a.get("drive_efficiency", 0.75))
+        b = a["battery"]
+        self.battery = Battery(b["cells"], b["capacity_mah"], b["r_int_ohm"])
+        table = MIXER_TABLES[frame]
+        arm = a["arm_m"]
+        self.n = len(table)
+        self.px = []
+        self.py = []
+        self.spin = []  # +1: prop turns clockwise seen from above (reaction torque yaws left)
+        for row in table:
+            roll_w, pitch_w, yaw_w = row[1], row[2], row[3]
+            norm = math.sqrt(roll_w * roll_w + pitch_w * pitch_w) or 1.0
+            self.px.append(arm * pitch_w / norm)
+            self.py.append(-arm * roll_w / norm)
+            self.spin.append(-1.0 if yaw_w > 0 else (1.0 if yaw_w < 0 else 0.0))
+        if frame == "tri":
+            # Tail motor on a yaw servo; the front pair counter-rotate, the tail's torque is trimmed by tilt.
+            self.spin = [0.0, 1.0, -1.0]
+        self.tri = frame == "tri"
+        self.servo_max_rad = math.radians(a.get("tri_servo_deg", 40.0))
+        self.servo_cmd = 0.0
+        self.reset()
+
+    def reset(self, altitude_m=0.0, roll_rad=0.0, pitch_rad=0.0, yaw_rad=0.0):
+        self.pn = 0.0
+        self.pe = 0.0
+        self.pd = -altitude_m
+        self.vn = 0.0
+        self.ve = 0.0
+        self.vd = 0.0
+        cr, sr = math.cos(roll_rad / 2), math.sin(roll_rad / 2)
+        cp, sp = math.cos(pitch_rad / 2), math.sin(pitch_rad / 2)
+        cy, sy = math.cos(yaw_rad / 2), math.sin(yaw_rad / 2)
+        self.qw = cr * cp * cy + sr * sp * sy
+        self.qx = sr * cp * cy - cr * sp * sy
+        self.qy = cr * sp * cy + sr * cp * sy
+        self.qz = cr * cp * sy - sr * sp * cy
+        self.p = 0.0
+        self.q = 0.0
+        self.r = 0.0
+        self.omega = [0.0] * self.n
+        self.on_ground = altitude_m <= 0.0
+        self.crashed = False
+        self.impact_m_s = 0.0
+        # specific force in the body frame (what an accelerometer reads), m/s²
+        self.fx = 0.0
+        self.fy = 0.0
+        self.fz = -G_M_S2
+        self.wind_n = 0.0
+        self.wind_e = 0.0
+        self.wind_d = 0.0
+
+    def hover_omega(self):
+        return math.sqrt(self.mass_kg * G_M_S2 / (self.n * self.kt))
+
+    def step(self, dt, motor_cmd):
+        """Advance dt seconds with motor commands 0 (stop) or idle..1 (ESC throttle)."""
+        kt = self.kt
+        kq = self.kq
+        omega = self.omega
+        bat = self.battery
+        omega_max = self.omega_per_volt * bat.voltage_v
+        a_up = dt / (self.tau_up_s + dt)
+        a_dn = dt / (self.tau_down_s + dt)
+        thrust = 0.0
+        tx = 0.0
+        ty = 0.0
+        tz = 0.0
+        power = 0.0
+        px = self.px
+        py = self.py
+        spin = self.spin
+        for i in range(self.n):
+            target = motor_cmd[i] * omega_max
+            w = omega[i]
+            w += (a_up if target > w else a_dn) * (target - w)
+            if w < 0.0:
+                w = 0.0
+            omega[i] = w
+            t = kt * w * w
+            thrust += t
+            tx -= py[i] * t
+            ty += px[i] * t
+            tz -= spin[i] * kq * w * w
+            power += t * math.sqrt(t)
+        fz_body = -thrust
+        fx_body = 0.0
+        fy_body = 0.0
+        omega_sum = 0.0
+        for i in range(self.n):
+            omega_sum += omega[i]
+        if self.tri:
+            # Tail thrust tilted by the servo: a sideways force at the tail gives yaw.
+            t_tail = kt * omega[0] * omega[0]
+            ang = self.servo_cmd * self.servo_max_rad
+            side = t_tail * math.sin(ang)
+            fy_body += side
+            tz += -px[0] * side  # tail is behind (px < 0): force to the right yaws the nose right
+        current = power * self._power_k / (bat.voltage_v if bat.voltage_v > 1.0 else 1.0) + self.idle_current_a
+        bat.step(current, dt)
+
+        # Rotation matrix body->NED from the quaternion.
+        w = self.qw
+        x = self.qx
+        y = self.qy
+        z = self.qz
+        r00 = 1 - 2 * (y * y + z * z)
+        r01 = 2 * (x * y - w * z)
+        r02 = 2 * (x * z + w * y)
+        r10 = 2 * (x * y + w * z)
+        r11 = 1 - 2 * (x * x + z * z)
+        r12 = 2 * (y * z - w * x)
+        r20 = 2 * (x * z - w * y)
+        r21 = 2 * (y * z + w * x)
+        r22 = 1 - 2 * (x * x + y * y)
+
+        m = self.mass_kg
+        # Drag against the air, world frame.
+        an = self.vn - self.wind_n
+        ae = self.ve - self.wind_e
+        ad = self.vd - self.wind_d
+        speed = math.sqrt(an * an + ae * ae + ad * ad)
+        c = self.drag_n_per_m2_s2 * speed
+        dn = -c * an
+        de = -c * ae
+        dd = -c * ad
+        # Rotor drag (H-force): spinning rotors resist air moving across the disc, in the body plane.
+        kd = self.rotor_drag * omega_sum
+        if kd > 0.0:
+            bx = r00 * an + r10 * ae + r20 * ad
+            by = r01 * an + r11 * ae + r21 * ad
+            fx_body -= kd * bx
+            fy_body -= kd * by
+        # Non-gravitational force in the world frame.
+        fn = r00 * fx_body + r01 * fy_body + r02 * fz_body + dn
+        fe = r10 * fx_body + r11 * fy_body + r12 * fz_body + de
+        fd = r20 * fx_body + r21 * fy_body + r22 * fz_body + dd
+        vn0 = self.vn
+        ve0 = self.ve
+        vd0 = self.vd
+        self.vn = vn0 + fn / m * dt
+        self.ve = ve0 + fe / m * dt
+        self.vd = vd0 + (fd / m + G_M_S2) * dt
+        self.pn += self.vn * dt
+        self.pe += self.ve * dt
+        self.pd += self.vd * dt
+
+        # Rotational dynamics, body frame (Euler's equations).
+        p = self.p
+        q = self.q
+        r = self.r
+        ixx = self.ixx
+        iyy = self.iyy
+        izz = self.izz
+        damp = self.ang_damping
+        tx -= damp * p
+        ty -= damp * q
+        tz -= damp * r
+        p += (tx - (izz - iyy) * q * r) / ixx * dt
+        q += (ty - (ixx - izz) * p * r) / iyy * dt
+        r += (tz - (iyy - ixx) * p * q) / izz * dt
+
+        # Ground: ArduPilot's rule. At the ground: clamp, stop sinking; while the rotors cannot lift
+        # the craft it sits level (yaw kept), still.
+        if self.pd >= 0.0:
+            if not self.on_ground and self.vd > 0.05:
+                self.impact_m_s = self.vd
+                if self.vd > 3.0 or r22 < 0.5:
+                    self.crashed = True
+            self.pd = 0.0
+            if self.vd > 0.0:
+                self.vd = 0.0
+            if -fd < m * G_M_S2:
+                self.on_ground = True
+                self.vn = 0.0
+                self.ve = 0.0
+                self.vd = 0.0
+                p = 0.0
+                q = 0.0
+                r *= 0.5
+                yaw = math.atan2(r10, r00)
+                w = math.cos(yaw / 2)
+                x = 0.0
+                y = 0.0
+                z = math.sin(yaw / 2)
+            else:
+                self.on_ground = False
+        else:
+            self.on_ground = False
+        self.p = p
+        self.q = q
+        self.r = r
+
+        # Attitude: q <- q * exp(omega dt / 2), then normalise.
+        h = 0.5 * dt
+        hx = p * h
+        hy = q * h
+        hz = r * h
+        nw = w - x * hx - y * hy - z * hz
+        nx = x + w * hx + y * hz - z * hy
+        ny = y + w * hy - x * hz + z * hx
+        nz = z + w * hz + x * hy - y * hx
+        inv = 1.0 / math.sqrt(nw * nw + nx * nx + ny * ny + nz * nz)
+        self.qw = nw * inv
+        self.qx = nx * inv
+        self.qy = ny * inv
+        self.qz = nz * inv
+
+        # Specific force in the body (accelerometer): (dv/dt - g) rotated into the body.
+        an_w = (self.vn - vn0) / dt
+        ae_w = (self.ve - ve0) / dt
+        ad_w = (self.vd - vd0) / dt - G_M_S2
+        self.fx = r00 * an_w + r10 * ae_w + r20 * ad_w
+        self.fy = r01 * an_w + r11 * ae_w + r21 * ad_w
+        self.fz = r02 * an_w + r12 * ae_w + r22 * ad_w
+
+    # -------------------------------------------------------------- truth
+    def euler_rad(self):
+        w, x, y, z = self.qw, self.qx, self.qy, self.qz
+        roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
+        s = 2 * (w * y - z * x)
+        pitch = math.asin(1.0 if s > 1.0 else (-1.0 if s < -1.0 else s))
+        yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+        return roll, pitch, yaw
+
+    def tilt_rad(self):
+        c = 1 - 2 * (self.qx * self.qx + self.qy * self.qy)
+        return math.acos(1.0 if c > 1.0 else (-1.0 if c < -1.0 else c))
+
+    def altitude_m(self):
+        return -self.pd

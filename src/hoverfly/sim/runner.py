@@ -1,0 +1,377 @@
+"""Fly a scenario on the simulator in lockstep and judge the flight.
+
+Each step: the pilot moves the sticks, the physics advances one loop period, the IMU
+model samples it into the sim board, and the flight core runs one pass. Deterministic
+for a seed. The result is what `hoverfly fly --json` prints: tilt, altitude, drift,
+events, every commanded step's rise/overshoot/settle, and the loop's own cost.
+"""
+
+import math
+import time
+
+from hoverfly.compat import ticks_diff
+from hoverfly.core.arming import REASONS
+from hoverfly.core.control import MODE_NAMES
+from hoverfly.core.events import DISARM_REASONS, EV_ARMING_BLOCKED, EV_DISARMED, EV_MODE, EVENT_NAMES
+from hoverfly.core.flight import Flight
+from hoverfly.core.mixer import MIXER_TABLES
+from hoverfly.core.params import Params
+from hoverfly.errors import UserError
+from hoverfly.sim.airframes import load_airframe
+from hoverfly.sim.board import SimBoard
+from hoverfly.sim.physics import Vehicle
+from hoverfly.sim.pilot import Pilot
+from hoverfly.sim.scenario import load_scenario
+from hoverfly.sim.sensors import ImuModel
+
+_DEG = 180.0 / math.pi
+
+
+def build_params(airframe, scenario, overrides):
+    """Defaults, then the airframe's tune, then the scenario's, then --set: each checked."""
+    params = Params()
+    err = params.set("mixer_type", airframe.get("frame", "quadx"))
+    if err:
+        raise UserError(err)
+    for layer, values in (("airframe " + airframe["name"], airframe.get("params", {})),
+                          ("scenario", scenario.get("params", {}))):
+        for name, value in values.items():
+            err = params.set(name, value)
+            if err:
+                raise UserError("%s: %s" % (layer, err))
+    for name, value in overrides:
+        err = params.set(name, value)
+        if err:
+            raise UserError("--set %s" % err)
+    return params
+
+
+class StepMeter:
+    """Measures one commanded step: 10-90 % rise, overshoot, settling (±5 %) and steady error."""
+
+    def __init__(self, axis, mode, start, target, unit, t0_s):
+        self.axis = axis
+        self.mode = mode
+        self.start = start
+        self.target = target
+        self.unit = unit
+        self.t0_s = t0_s
+        self.samples = []
+
+    def add(self, t_s, value):
+        self.samples.append((t_s - self.t0_s, value))
+
+    def result(self):
+        a = self.target - self.start
+        span = abs(a) if a != 0 else 1.0
+        sign = 1.0 if a >= 0 else -1.0
+        t10 = t90 = None
+        peak = -1e9
+        for t, v in self.samples:
+            frac = (v - self.start) * sign / span
+            if t10 is None and frac >= 0.1:
+                t10 = t
+            if t90 is None and frac >= 0.9:
+                t90 = t
+            if frac > peak:
+                peak = frac
+        settle = None
+        band = 0.05 * span
+        for t, v in reversed(self.samples):
+            if abs(v - self.target) > band:
+                settle = t
+                break
+        if settle is None:
+            settle = 0.0
+        elif self.samples and settle >= self.samples[-1][0]:
+            settle = None  # never settled within the window
+        n_tail = max(1, len(self.samples) // 5)
+        tail = self.samples[-n_tail:]
+        steady = sum(self.target - v for _, v in tail) / len(tail) if tail else None
+        r = {
+            "axis": self.axis,
+            "mode": self.mode,
+            "from": round(self.start, 3),
+            "to": round(self.target, 3),
+            "unit": self.unit,
+            "rise_ms": None if (t10 is None or t90 is None) else round((t90 - t10) * 1000.0, 1),
+            "t90_ms": None if t90 is None else round(t90 * 1000.0, 1),
+            "overshoot_pct": round(max(0.0, (peak - 1.0) * 100.0), 2),
+            "settle_ms": None if settle is None else round(settle * 1000.0, 1),
+            "steady_error": None if steady is None else round(steady, 3),
+        }
+        return r
+
+
+class SimRun:
+    def __init__(self, airframe="5inch", scenario="demo", seed=1, overrides=(), duration_s=None,
+                 realtime=False):
+        self.airframe = load_airframe(airframe) if isinstance(airframe, str) else airframe
+        self.scenario = load_scenario(scenario) if isinstance(scenario, str) else scenario
+        self.seed = seed
+        self.params = build_params(self.airframe, self.scenario, overrides)
+        self.duration_s = duration_s if duration_s is not None else self.scenario["duration_s"]
+        if not (0 < self.duration_s <= 3600):
+            raise UserError("--duration must be between 0 and 3600 s")
+        self.realtime = realtime
+        frame = self.params.get("mixer_type")
+        if len(MIXER_TABLES[frame]) != len(MIXER_TABLES[self.airframe["frame"]]):
+            raise UserError("mixer_type %s does not fit the %s airframe (%s)"
+                            % (frame, self.airframe["name"], self.airframe["frame"]))
+        self.loop_hz = self.params.get("loop_hz")
+        self.vehicle = Vehicle(self.airframe, frame)
+        self.board = SimBoard(self.vehicle.n)
+        self.imu = ImuModel(self.airframe["imu"], seed, self.loop_hz, self.vehicle.hover_omega(), self.vehicle.n)
+        self.flight = Flight(self.board, self.params)
+        self.pilot = Pilot(self.board.channels_us, self.scenario["mode"])
+        self.pilot.hover_guess = self._hover_throttle_guess()
+        self.events_out = []
+        self.on_step = None  # optional hook: fn(run) after every pass (logger, ground station)
+
+    def _hover_throttle_guess(self):
+        v = self.vehicle
+        omega_max = v.omega_per_volt * v.battery.voltage_v
+        u = v.hover_omega() / omega_max
+        idle = self.params.get("motor_idle_pct") * 0.01
+        # A pilot knows roughly where the hover is; the altitude loop's integral finds the rest.
+        return max(0.05, (u - idle) / (1.0 - idle)) * 0.9
+
+    # ------------------------------------------------------------------- run
+    def run(self):
+        v = self.vehicle
+        board = self.board
+        flight = self.flight
+        pilot = self.pilot
+        imu = self.imu
+        period_us = 1_000_000 // self.loop_hz
+        dt = period_us * 1e-6
+        n_steps = int(round(self.duration_s * self.loop_hz))
+        events = list(self.scenario["events"])
+        ev_i = 0
+        boot = board.now_us()
+        flight.start(boot)
+        ev_seen = 0
+
+        stats = {"tilt_sq": 0.0, "tilt_n": 0, "max_tilt": 0.0, "alt_min": 1e9, "alt_max": -1e9,
+                 "drift": 0.0, "takeoff": None, "airborne_at": None}
+        judge_from = self.scenario.get("judge_from_s", 0.0)
+        steps_open = {}
+        steps_done = []
+        last_cmd = {"roll": 0.0, "pitch": 0.0, "yaw": 0.0}
+        gust_until = None
+        base_wind = [0.0, 0.0, 0.0]
+        loop_sum = 0.0
+        loop_max = 0.0
+        overruns = 0
+        perf = time.perf_counter
+        wall0 = perf()
+        period_s = dt
+        frozen = False
+
+        for k in range(n_steps):
+            t = (k + 1) * dt
+            # scenario events due now
+            while ev_i < len(events) and events[ev_i]["t"] <= t + 1e-9:
+                ev = events[ev_i]
+                ev_i += 1
+                gust_until = self._apply_event(ev, t, v, last_cmd, steps_open, steps_done, base_wind) or gust_until
+                if "imu_freeze" in ev:
+                    frozen = ev["imu_freeze"]
+            if gust_until is not None and t >= gust_until:
+                v.wind_n, v.wind_e, v.wind_d = base_wind
+                gust_until = None
+            pilot.update(t, dt, v)
+            v.servo_cmd = board.servo_cmd[0]
+            v.step(dt, board.motor_cmd)
+            board.sim_us += period_us
+            if not frozen:
+                imu.sample(v, board.gyro, board.accel)
+                board.imu_fresh = True
+            q = board.quaternion
+            q[0], q[1], q[2], q[3] = v.qw, v.qx, v.qy, v.qz
+            board.battery_v = v.battery.voltage_v
+            board.current_a = v.battery.current_a
+            now = board.now_us()
+            w0 = perf()
+            flight.step(now)
+            took = perf() - w0
+            loop_sum += took
+            if took > loop_max:
+                loop_max = took
+            if took > period_s:
+                overruns += 1
+            if self.on_step is not None:
+                self.on_step(self)
+            # judge
+            roll, pitch, yaw = v.euler_rad()
+            airborne = not v.on_ground
+            if airborne and stats["airborne_at"] is None:
+                stats["airborne_at"] = t
+                stats["takeoff"] = (v.pn, v.pe)
+            alt = v.altitude_m()
+            if stats["airborne_at"] is not None:
+                if alt < stats["alt_min"]:
+                    stats["alt_min"] = alt
+                if alt > stats["alt_max"]:
+                    stats["alt_max"] = alt
+                dn = v.pn - stats["takeoff"][0]
+                de = v.pe - stats["takeoff"][1]
+                d = math.sqrt(dn * dn + de * de)
+                if d > stats["drift"]:
+                    stats["drift"] = d
+            if airborne and t >= judge_from and stats["airborne_at"] is not None \
+                    and t - stats["airborne_at"] > 1.0:
+                tilt = v.tilt_rad() * _DEG
+                stats["tilt_sq"] += tilt * tilt
+                stats["tilt_n"] += 1
+                if tilt > stats["max_tilt"]:
+                    stats["max_tilt"] = tilt
+            for meter in steps_open.values():
+                meter.add(t, self._step_signal(meter, v, roll, pitch))
+            ev_seen = flight.events.drain(ev_seen, lambda tu, e, d: self._event(boot, tu, e, d))
+            if self.realtime:
+                lag = (wall0 + t) - perf()
+                if lag > 0:
+                    time.sleep(lag)
+        wall = perf() - wall0
+        for meter in steps_open.values():
+            steps_done.append(meter)
+        steps_done.sort(key=lambda m: m.t0_s)
+        sim_time = n_steps * dt
+        alt_now = v.altitude_m()
+        n_tilt = stats["tilt_n"]
+        sched = flight.scheduler
+        return {
+            "scenario": self.scenario["name"],
+            "airframe": self.airframe["name"],
+            "seed": self.seed,
+            "sim_time_s": round(sim_time, 4),
+            "wall_time_s": round(wall, 3),
+            "realtime_factor": round(sim_time / wall, 2) if wall > 0 else None,
+            "loop_hz": self.loop_hz,
+            "crashed": v.crashed,
+            "armed": flight.arming.armed,
+            "events": self.events_out,
+            "tilt_rms_deg": round(math.sqrt(stats["tilt_sq"] / n_tilt), 3) if n_tilt else 0.0,
+            "max_tilt_deg": round(stats["max_tilt"], 2),
+            "altitude_m": {
+                "min": round(stats["alt_min"], 3) if stats["airborne_at"] is not None else 0.0,
+                "max": round(stats["alt_max"], 3) if stats["airborne_at"] is not None else 0.0,
+                "final": round(alt_now, 3),
+            },
+            "horizontal_drift_m": round(stats["drift"], 3),
+            "steps": [m.result() for m in steps_done],
+            "loop": {
+                "mean_us": round(loop_sum / n_steps * 1e6, 2) if n_steps else 0.0,
+                "max_us": round(loop_max * 1e6, 1),
+                "overruns": overruns,
+                "cycle_jitter_max_us": sched.jitter_max_us,
+            },
+            "battery": {"voltage_v": round(v.battery.voltage_v, 3), "mah_drawn": round(v.battery.mah_drawn, 1)},
+        }
+
+    # ---------------------------------------------------------------- helpers
+    def _event(self, boot, t_us, event, detail):
+        t_s = ticks_diff(t_us, boot) * 1e-6
+        name = EVENT_NAMES[event] if 0 <= event < len(EVENT_NAMES) else "event%d" % event
+        if event == EV_MODE:
+            text = MODE_NAMES[detail] if 0 <= detail < len(MODE_NAMES) else str(detail)
+        elif event == EV_ARMING_BLOCKED:
+            text = REASONS[detail][1] if detail in REASONS else str(detail)
+        elif event == EV_DISARMED:
+            text = DISARM_REASONS[detail] if 0 <= detail < len(DISARM_REASONS) else str(detail)
+        else:
+            text = str(detail)
+        self.events_out.append({"t_s": round(t_s, 4), "event": name, "detail": text})
+
+    def _step_signal(self, meter, v, roll, pitch):
+        i = ("roll", "pitch", "yaw").index(meter.axis)
+        if meter.unit == "dps":
+            return (v.p, v.q, v.r)[i] * _DEG
+        return (roll, pitch, 0.0)[i] * _DEG
+
+    def _stick_for(self, axis, value, unit):
+        """The stick deflection that asks for `value` (pitch up positive) on `axis`."""
+        rc = self.flight.rc
+        i = ("roll", "pitch", "yaw").index(axis)
+        if unit == "dps":
+            s = rc.rates[i].stick_for_rate(value / _DEG)
+        else:
+            s = (value / _DEG) / rc.angle_limit_rad
+            s = max(-1.0, min(1.0, s))
+        return -s if axis == "pitch" else s
+
+    def _apply_event(self, ev, t, v, last_cmd, steps_open, steps_done, base_wind):
+        p = self.pilot
+        gust_until = None
+        if "arm" in ev:
+            p.arm = ev["arm"]
+        if "mode" in ev:
+            p.mode = ev["mode"]
+        if "throttle" in ev:
+            p.throttle = ev["throttle"]
+            p.hold_alt_m = None
+        if "throttle_us" in ev:
+            p.throttle = (ev["throttle_us"] - 1000) / 1000.0
+            p.hold_alt_m = None
+        for axis in ("roll", "pitch", "yaw"):
+            if axis in ev:
+                setattr(p, axis, ev[axis])
+            if axis + "_us" in ev:
+                setattr(p, axis, (ev[axis + "_us"] - 1500) / 500.0)
+        if "hold_altitude_m" in ev:
+            p.set_hold(ev["hold_altitude_m"], v)
+        if "fly_to" in ev:
+            p.fly_to = tuple(ev["fly_to"])
+        if "land" in ev and ev["land"]:
+            p.start_land(v)
+        if "flip" in ev:
+            p.start_flip(ev["flip"], t)
+        if "step" in ev or "mode" in ev:
+            # A new step, or a mode change, ends the windows of the steps still being measured.
+            for axis_open in list(steps_open):
+                if "step" not in ev or ev["step"]["axis"] != axis_open:
+                    steps_done.append(steps_open.pop(axis_open))
+        if "step" in ev:
+            st = ev["step"]
+            axis = st["axis"]
+            unit = st.get("unit", "dps" if p.mode == "acro" else "deg")
+            to = float(st["to"])
+            setattr(p, axis, self._stick_for(axis, to, unit))
+            old = steps_open.pop(axis, None)
+            if old is not None:
+                steps_done.append(old)
+            start = last_cmd[axis] if old is not None else 0.0
+            last_cmd[axis] = to
+            mode = "rate" if unit == "dps" else "angle"
+            steps_open[axis] = StepMeter(axis, mode, start, to, unit, t)
+        if "kick" in ev:
+            k = ev["kick"]
+            v.p += k.get("roll_dps", 0.0) / _DEG
+            v.q += k.get("pitch_dps", 0.0) / _DEG
+            v.r += k.get("yaw_dps", 0.0) / _DEG
+        if "wind" in ev:
+            w = ev["wind"]
+            base_wind[0] = w.get("north_m_s", 0.0)
+            base_wind[1] = w.get("east_m_s", 0.0)
+            base_wind[2] = w.get("down_m_s", 0.0)
+            v.wind_n, v.wind_e, v.wind_d = base_wind
+        if "gust" in ev:
+            g = ev["gust"]
+            v.wind_n = base_wind[0] + g.get("north_m_s", 0.0)
+            v.wind_e = base_wind[1] + g.get("east_m_s", 0.0)
+            v.wind_d = base_wind[2] + g.get("down_m_s", 0.0)
+            gust_until = t + g.get("duration_s", 1.0)
+        if "rx_lost" in ev:
+            self.board.rx_alive = not ev["rx_lost"]
+        if "set" in ev:
+            for name, value in ev["set"].items():
+                err = self.params.set(name, value)
+                if err:
+                    raise UserError(err)
+        return gust_until
+
+
+def fly(scenario="demo", airframe="5inch", seed=1, overrides=(), duration_s=None, realtime=False):
+    """Fly and judge; returns the result dict."""
+    return SimRun(airframe, scenario, seed, overrides, duration_s, realtime).run()

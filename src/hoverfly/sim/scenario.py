@@ -1,0 +1,160 @@
+"""Scenarios: a TOML timeline a user can write, checked before anything flies.
+
+    name = "hover"
+    duration_s = 12
+    mode = "angle"                 # starting position of the mode switch: acro | angle | horizon
+    [[at]]
+    t = 0.5
+    arm = true                     # the arm switch
+    [[at]]
+    t = 1.0
+    hold_altitude_m = 2.0          # the pilot holds this altitude with the throttle stick
+
+Keys an `[[at]]` entry may hold (several at once):
+    arm (bool), mode (str), throttle (0..1), throttle_us, roll / pitch / yaw (stick -1..1, pitch
+    forward positive as on the transmitter), roll_us / pitch_us / yaw_us, hold_altitude_m (number,
+    or false to hand the throttle back), fly_to ([north_m, east_m], angle mode), land (true: descend,
+    touch down, disarm), step ({axis, to, unit: "dps" in acro or "deg" in angle/horizon; pitch up is
+    positive}), kick ({roll_dps, pitch_dps, yaw_dps}: an instant change of body rate), gust
+    ({north_m_s, east_m_s, down_m_s, duration_s}), wind ({north_m_s, east_m_s, down_m_s}), flip
+    ("roll" or "pitch": a full 360° in acro, flown as a pilot would), rx_lost (bool), imu_freeze (bool),
+    set ({name = value}: change parameters in flight).
+"""
+
+import pathlib
+import tomllib
+
+from hoverfly.core.params import check_value
+from hoverfly.errors import UserError
+
+HERE = pathlib.Path(__file__).parent / "scenarios"
+
+_EVENT_KEYS = {
+    "t", "arm", "mode", "throttle", "throttle_us", "roll", "pitch", "yaw", "roll_us", "pitch_us", "yaw_us",
+    "hold_altitude_m", "fly_to", "land", "step", "kick", "gust", "wind", "flip", "rx_lost", "imu_freeze",
+    "set", "note",
+}
+_MODES = ("acro", "angle", "horizon")
+_AXES = ("roll", "pitch", "yaw")
+
+
+def builtin_names():
+    return sorted(p.stem for p in HERE.glob("*.toml"))
+
+
+def _num(where, key, value, lo, hi):
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise UserError("%s: %s must be a number" % (where, key))
+    if value < lo or value > hi:
+        raise UserError("%s: %s = %s is out of range %s .. %s" % (where, key, value, lo, hi))
+    return float(value)
+
+
+def _check_event(where, ev, duration_s):
+    unknown = sorted(set(ev) - _EVENT_KEYS)
+    if unknown:
+        raise UserError("%s: unknown key '%s'" % (where, unknown[0]))
+    if "t" not in ev:
+        raise UserError("%s: every [[at]] needs a time t" % where)
+    _num(where, "t", ev["t"], 0.0, duration_s)
+    for key in ("arm", "land", "rx_lost", "imu_freeze"):
+        if key in ev and not isinstance(ev[key], bool):
+            raise UserError("%s: %s must be true or false" % (where, key))
+    if "mode" in ev and ev["mode"] not in _MODES:
+        raise UserError("%s: mode must be one of %s" % (where, ", ".join(_MODES)))
+    if "throttle" in ev:
+        _num(where, "throttle", ev["throttle"], 0.0, 1.0)
+    for key in ("throttle_us", "roll_us", "pitch_us", "yaw_us"):
+        if key in ev:
+            _num(where, key, ev[key], 800, 2200)
+    for key in _AXES:
+        if key in ev:
+            _num(where, key, ev[key], -1.0, 1.0)
+    if "hold_altitude_m" in ev and ev["hold_altitude_m"] is not False:
+        _num(where, "hold_altitude_m", ev["hold_altitude_m"], 0.0, 500.0)
+    if "fly_to" in ev:
+        ft = ev["fly_to"]
+        if not isinstance(ft, list) or len(ft) != 2:
+            raise UserError("%s: fly_to must be [north_m, east_m]" % where)
+        for v in ft:
+            _num(where, "fly_to", v, -10000, 10000)
+    if "step" in ev:
+        st = ev["step"]
+        if not isinstance(st, dict) or st.get("axis") not in _AXES or "to" not in st:
+            raise UserError("%s: step needs axis (roll, pitch, yaw) and to" % where)
+        if st.get("unit", "dps") not in ("dps", "deg"):
+            raise UserError("%s: step unit must be dps or deg" % where)
+        _num(where, "step.to", st["to"], -2000, 2000)
+    for key, allowed, lim in (("kick", ("roll_dps", "pitch_dps", "yaw_dps"), 3000),
+                              ("gust", ("north_m_s", "east_m_s", "down_m_s", "duration_s"), 100),
+                              ("wind", ("north_m_s", "east_m_s", "down_m_s"), 100)):
+        if key in ev:
+            tab = ev[key]
+            if not isinstance(tab, dict):
+                raise UserError("%s: %s must be a table" % (where, key))
+            for k, v in tab.items():
+                if k not in allowed:
+                    raise UserError("%s: %s has no field '%s' (%s)" % (where, key, k, ", ".join(allowed)))
+                _num(where, key + "." + k, v, -lim, lim)
+    if "flip" in ev and ev["flip"] not in ("roll", "pitch"):
+        raise UserError("%s: flip must be roll or pitch" % where)
+    if "set" in ev:
+        if not isinstance(ev["set"], dict):
+            raise UserError("%s: set must be a table of parameter = value" % where)
+        for name, value in ev["set"].items():
+            _, err = check_value(name, value)
+            if err:
+                raise UserError("%s: %s" % (where, err))
+
+
+def parse_scenario(text, origin="scenario"):
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise UserError("%s is not valid TOML: %s" % (origin, exc)) from None
+    duration = _num(origin, "duration_s", data.get("duration_s", 10.0), 0.1, 3600.0)
+    mode = data.get("mode", "angle")
+    if mode not in _MODES:
+        raise UserError("%s: mode must be one of %s" % (origin, ", ".join(_MODES)))
+    events = data.get("at", [])
+    if not isinstance(events, list):
+        raise UserError("%s: [[at]] entries expected" % origin)
+    for i, ev in enumerate(events):
+        if not isinstance(ev, dict):
+            raise UserError("%s: [[at]] entry %d is not a table" % (origin, i + 1))
+        _check_event("%s [[at]] #%d" % (origin, i + 1), ev, duration)
+    events = sorted(events, key=lambda e: e["t"])
+    extra = data.get("params", {})
+    if not isinstance(extra, dict):
+        raise UserError("%s: [params] must be a table" % origin)
+    for name, value in extra.items():
+        _, err = check_value(name, value)
+        if err:
+            raise UserError("%s [params]: %s" % (origin, err))
+    return {
+        "name": data.get("name", origin),
+        "description": data.get("description", ""),
+        "duration_s": duration,
+        "mode": mode,
+        "events": events,
+        "params": extra,
+        "judge_from_s": float(data.get("judge_from_s", 0.0)),
+        "airframe": data.get("airframe"),
+    }
+
+
+def load_scenario(name_or_path):
+    path = pathlib.Path(name_or_path)
+    if path.suffix == ".toml" or "/" in str(name_or_path):
+        if not path.exists():
+            raise UserError("scenario file %s does not exist" % path)
+    else:
+        path = HERE / (str(name_or_path) + ".toml")
+        if not path.exists():
+            raise UserError("unknown scenario '%s' (built in: %s, or a .toml file)"
+                            % (name_or_path, ", ".join(builtin_names())))
+    try:
+        text = path.read_text()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise UserError("cannot read scenario %s: %s" % (path, exc)) from None
+    return parse_scenario(text, path.stem)

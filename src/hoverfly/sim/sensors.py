@@ -1,0 +1,95 @@
+"""IMU model: what a gyro and accelerometer on the simulated frame read.
+
+Truth (body rates, specific force) plus white noise (density × sqrt(rate/2) per sample),
+a turn-on bias, a bias random walk, vibration at each rotor's frequency with amplitude
+growing as ω², and range clipping. Seeded and deterministic: the noise comes from a table
+drawn once from the seed, so a sample costs no random-number calls.
+"""
+
+import math
+import random
+
+_TABLE = 65521  # prime, so the six axes' strides never line up
+
+
+class ImuModel:
+    def __init__(self, cfg, seed, loop_hz, hover_omega, motor_count):
+        rng = random.Random(seed)
+        self.noise = [rng.gauss(0.0, 1.0) for _ in range(_TABLE)]
+        self._k = 0
+        rate = float(loop_hz)
+        self.dt = 1.0 / rate
+        self.gyro_sigma = cfg["gyro_noise_rad_s_rthz"] * math.sqrt(rate / 2.0)
+        self.accel_sigma = cfg["accel_noise_m_s2_rthz"] * math.sqrt(rate / 2.0)
+        bs = cfg["gyro_bias_sigma_rad_s"]
+        self.gyro_bias = [rng.gauss(0.0, bs) for _ in range(3)]
+        ab = cfg["accel_bias_sigma_m_s2"]
+        self.accel_bias = [rng.gauss(0.0, ab) for _ in range(3)]
+        self.walk_sigma = cfg["gyro_bias_walk_rad_s_rts"] * math.sqrt(self.dt * 16)
+        self._rng = rng
+        self.gyro_vib = cfg["gyro_vibration_rad_s"] / (hover_omega * hover_omega)
+        self.accel_vib = cfg["accel_vibration_m_s2"] / (hover_omega * hover_omega)
+        self.phase = [rng.uniform(0.0, 2.0 * math.pi) for _ in range(motor_count)]
+        # each motor shakes along its own direction in the body plane (imbalance)
+        self.vib_dir = [rng.uniform(0.0, 2.0 * math.pi) for _ in range(motor_count)]
+        self.gyro_max = math.radians(cfg["gyro_range_dps"])
+        self.accel_max = cfg["accel_range_g"] * 9.80665
+        self.frozen = False
+        self._steps = 0
+        self.enabled = True
+
+    def sample(self, v, gyro_out, accel_out):
+        if self.frozen:
+            return
+        nz = self.noise
+        k = self._k
+        gs = self.gyro_sigma
+        acs = self.accel_sigma
+        gb = self.gyro_bias
+        ab = self.accel_bias
+        self._steps += 1
+        if self._steps & 15 == 0:
+            w = self.walk_sigma
+            rng = self._rng
+            gb[0] += rng.gauss(0.0, w)
+            gb[1] += rng.gauss(0.0, w)
+            gb[2] += rng.gauss(0.0, w)
+        # vibration: sum of rotor sinusoids
+        vib_g = 0.0
+        vib_x = 0.0
+        vib_y = 0.0
+        dt = self.dt
+        ph = self.phase
+        omega = v.omega
+        dirs = self.vib_dir
+        for i in range(len(omega)):
+            w = omega[i]
+            p = ph[i] + w * dt
+            if p > 6.283185307179586:
+                p -= 6.283185307179586 * int(p / 6.283185307179586)
+            ph[i] = p
+            a = w * w * math.sin(p)
+            vib_g += a
+            d = dirs[i]
+            vib_x += a * math.cos(d)
+            vib_y += a * math.sin(d)
+        gv = self.gyro_vib
+        av = self.accel_vib
+        gx = v.p + gb[0] + gs * nz[k] + gv * vib_x
+        gy = v.q + gb[1] + gs * nz[k + 1] + gv * vib_y
+        gz = v.r + gb[2] + gs * nz[k + 2] + gv * 0.3 * vib_g
+        ax = v.fx + ab[0] + acs * nz[k + 3] + av * vib_x
+        ay = v.fy + ab[1] + acs * nz[k + 4] + av * vib_y
+        az = v.fz + ab[2] + acs * nz[k + 5] + av * vib_g
+        k += 6
+        if k > _TABLE - 7:
+            k -= _TABLE - 7
+        self._k = k
+        gm = self.gyro_max
+        am = self.accel_max
+        gyro_out[0] = gm if gx > gm else (-gm if gx < -gm else gx)
+        gyro_out[1] = gm if gy > gm else (-gm if gy < -gm else gy)
+        gyro_out[2] = gm if gz > gm else (-gm if gz < -gm else gz)
+        accel_out[0] = am if ax > am else (-am if ax < -am else ax)
+        accel_out[1] = am if ay > am else (-am if ay < -am else ay)
+        accel_out[2] = am if az > am else (-am if az < -am else az)
