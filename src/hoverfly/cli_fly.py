@@ -44,6 +44,9 @@ def summary(r):
         lines.append("  step %s %s %g->%g %s: rise %s ms, 90%% at %s ms, overshoot %.1f %%, settle %s ms, error %s"
                      % (s["axis"], s["mode"], s["from"], s["to"], s["unit"], s["rise_ms"], s["t90_ms"],
                         s["overshoot_pct"], s["settle_ms"], s["steady_error"]))
+    for f in r.get("flips", []):
+        lines.append("  flip %s: %d ms, lost %.2f m, ended %.1f deg from level"
+                     % (f["axis"], f["duration_ms"], f["alt_loss_m"], f["end_tilt_deg"]))
     ev = ", ".join("%s %s@%.2fs" % (e["event"], e["detail"], e["t_s"]) for e in r["events"]
                    if e["event"] not in ("mode", "airmode"))
     lines.append("  events: " + ev)

@@ -120,7 +120,7 @@ class Pilot:
         phase = self._flip_phase
         stick = 0.0
         if phase == 1:  # punch up for a moment to buy height
-            throttle = 0.75
+            throttle = 0.5 + 0.5 * self.hover_guess
             if t - self._flip_t0 > 0.25:
                 self._flip_phase = 2
         elif phase == 2:  # full stick, throttle low while inverted

@@ -167,6 +167,8 @@ class SimRun:
         wall0 = perf()
         period_s = dt
         frozen = False
+        flips = []
+        flip = None
 
         for k in range(n_steps):
             t = (k + 1) * dt
@@ -228,6 +230,25 @@ class SimRun:
                     stats["max_tilt"] = tilt
             for meter in steps_open.values():
                 meter.add(t, self._step_signal(meter, v, roll, pitch))
+            if pilot._flip_phase and flip is None:
+                flip = {"axis": pilot.flip_axis, "t_s": round(t, 3), "start_alt_m": alt, "min_alt_m": alt,
+                        "peak_alt_m": alt}
+            if flip is not None:
+                # Height lost: from the highest point of the manoeuvre to the lowest after it.
+                if alt > flip["peak_alt_m"]:
+                    flip["peak_alt_m"] = alt
+                    flip["min_alt_m"] = alt
+                if alt < flip["min_alt_m"]:
+                    flip["min_alt_m"] = alt
+                if not pilot._flip_phase:
+                    flip["end_tilt_deg"] = round(v.tilt_rad() * _DEG, 2)
+                    flip["alt_loss_m"] = round(flip["peak_alt_m"] - flip["min_alt_m"], 3)
+                    flip["peak_alt_m"] = round(flip["peak_alt_m"], 3)
+                    flip["duration_ms"] = round((t - flip["t_s"]) * 1000.0)
+                    flip["start_alt_m"] = round(flip["start_alt_m"], 3)
+                    flip["min_alt_m"] = round(flip["min_alt_m"], 3)
+                    flips.append(flip)
+                    flip = None
             ev_seen = flight.events.drain(ev_seen, lambda tu, e, d: self._event(boot, tu, e, d))
             if self.realtime:
                 lag = (wall0 + t) - perf()
@@ -261,6 +282,7 @@ class SimRun:
             },
             "horizontal_drift_m": round(stats["drift"], 3),
             "steps": [m.result() for m in steps_done],
+            "flips": flips,
             "loop": {
                 "mean_us": round(loop_sum / n_steps * 1e6, 2) if n_steps else 0.0,
                 "max_us": round(loop_max * 1e6, 1),
