@@ -1,0 +1,199 @@
+"""MPU-6050 over I2C: probe, configure, one 14-byte burst per sample, boot gyro calibration.
+
+Takes a `machine.I2C`-style bus (readfrom_mem_into / writeto_mem / readfrom_mem) and an
+Orientation; gives body-frame FRD gyro in rad/s and accel in m/s² (level at rest:
+accel z ≈ -9.81) into the caller's arrays. Seed 000: 400 kHz, address 0x68, reset via
+PWR_MGMT_1 (0x6B), calibration = discard 500 samples then average 500.
+
+Register numbers and values: InvenSense "MPU-6000 and MPU-6050 Register Map and
+Descriptions" RM-MPU-6000A-00 rev 4.2 (section numbers below); sensitivities from the
+product specification PS-MPU-6000A-00 rev 3.4 §6.1/6.2.
+"""
+
+from hoverfly.compat import const
+from hoverfly.drivers.imu import (
+    DEG_TO_RAD,
+    GRAVITY_M_S2,
+    STATUS_ABSENT,
+    STATUS_BUS_ERROR,
+    STATUS_OK,
+    STATUS_WRONG_ID,
+    Imu,
+)
+
+ADDRESS = 0x68  # AD0 low (RM §4.32 WHO_AM_I note; seed 000)
+ADDRESS_ALT = 0x69  # AD0 high
+WHO_AM_I_VALUE = 0x68  # RM §4.32: bits 6:1 = 0x34, reads 0x68 regardless of AD0
+
+_SMPLRT_DIV = const(0x19)  # RM §4.2, 25
+_CONFIG = const(0x1A)  # RM §4.3, 26: DLPF_CFG bits 2:0
+_GYRO_CONFIG = const(0x1B)  # RM §4.4, 27: FS_SEL bits 4:3
+_ACCEL_CONFIG = const(0x1C)  # RM §4.5, 28: AFS_SEL bits 4:3
+_ACCEL_XOUT_H = const(0x3B)  # RM §4.17, 59: accel X/Y/Z, TEMP, gyro X/Y/Z = 14 bytes to 0x48
+_GYRO_XOUT_H = const(0x43)  # RM §4.19, 67
+_PWR_MGMT_1 = const(0x6B)  # RM §4.28, 107: DEVICE_RESET bit 7, SLEEP bit 6, CLKSEL 2:0
+_WHO_AM_I = const(0x75)  # RM §4.32, 117
+
+_DEVICE_RESET = const(0x80)  # RM §4.28: resets all registers; bit clears itself
+_CLKSEL_PLL_XGYRO = const(0x01)  # RM §4.28: PLL with X gyro reference (recommended over 8 MHz RC), SLEEP = 0
+_RESET_WAIT_US = const(100000)  # RM §4.28/PS: wait 100 ms after DEVICE_RESET before the next write
+
+# RM §4.4 FS_SEL 0..3 and PS §6.1 sensitivity (seed 000's table): LSB per °/s.
+GYRO_RANGES_DPS = (250, 500, 1000, 2000)
+GYRO_LSB_PER_DPS = (131.0, 65.5, 32.8, 16.4)
+# RM §4.5 AFS_SEL 0..3 and PS §6.2: LSB per g.
+ACCEL_RANGES_G = (2, 4, 8, 16)
+ACCEL_LSB_PER_G = (16384.0, 8192.0, 4096.0, 2048.0)
+# RM §4.3 DLPF_CFG 0..6: gyro bandwidth in Hz (accel 260/184/94/44/21/10/5).
+# Gyro output rate is 8 kHz with DLPF_CFG 0 (or 7), 1 kHz otherwise; accel is always 1 kHz.
+DLPF_HZ = (256, 188, 98, 42, 20, 10, 5)
+
+
+def _index(table, value, what):
+    for i in range(len(table)):
+        if table[i] == value:
+            return i
+    raise ValueError("%s %r not supported (one of %r)" % (what, value, table))
+
+
+class MPU6050(Imu):
+    """InvenSense MPU-6050 over I2C (see the module docstring)."""
+
+    name = "mpu6050"
+
+    def __init__(self, bus, orientation, address=ADDRESS, delay_us=None):
+        Imu.__init__(self, orientation, delay_us)
+        self._bus = bus
+        self.address = address
+        self._buf = bytearray(14)
+        self._gbuf = bytearray(6)
+        self._one = bytearray(1)
+        self.temp_raw = 0
+        self.rate_hz = 0
+        self._raw_gx = self._raw_gy = self._raw_gz = 0
+
+    def probe(self):
+        """True if an MPU-6050 answers WHO_AM_I; otherwise False with status ABSENT / WRONG_ID."""
+        try:
+            self._bus.readfrom_mem_into(self.address, _WHO_AM_I, self._one)
+        except OSError:
+            self.bus_errors += 1
+            self.status = STATUS_ABSENT
+            return False
+        self.who_am_i = self._one[0]
+        if self.who_am_i != WHO_AM_I_VALUE:
+            self.status = STATUS_WRONG_ID
+            return False
+        self.status = STATUS_OK
+        return True
+
+    def register_plan(self, gyro_range_dps=2000, accel_range_g=16, dlpf_hz=98, rate_hz=1000):
+        """The (register, value) writes configure() makes after the reset, in order."""
+        fs = _index(GYRO_RANGES_DPS, gyro_range_dps, "gyro range (dps)")
+        afs = _index(ACCEL_RANGES_G, accel_range_g, "accel range (g)")
+        cfg = _index(DLPF_HZ, dlpf_hz, "DLPF bandwidth (Hz)")
+        base_hz = 8000 if cfg == 0 else 1000  # RM §4.2: gyro output rate
+        if rate_hz <= 0 or base_hz % rate_hz or base_hz // rate_hz > 256:
+            raise ValueError("rate_hz must divide %d Hz (DLPF %d Hz)" % (base_hz, dlpf_hz))
+        div = base_hz // rate_hz - 1  # RM §4.2: rate = gyro output rate / (1 + SMPLRT_DIV)
+        return (
+            (_PWR_MGMT_1, _CLKSEL_PLL_XGYRO),
+            (_SMPLRT_DIV, div),
+            (_CONFIG, cfg),
+            (_GYRO_CONFIG, fs << 3),
+            (_ACCEL_CONFIG, afs << 3),
+        )
+
+    def configure(self, gyro_range_dps=2000, accel_range_g=16, dlpf_hz=98, rate_hz=1000):
+        """Reset, wake on the PLL clock, set rate, DLPF and ranges. False if the chip is not there.
+
+        ValueError for a range/bandwidth the chip does not have (a programming error).
+        """
+        plan = self.register_plan(gyro_range_dps, accel_range_g, dlpf_hz, rate_hz)
+        if not self.probe():
+            return False
+        try:
+            self._bus.writeto_mem(self.address, _PWR_MGMT_1, bytes((_DEVICE_RESET,)))
+            self._delay_us(_RESET_WAIT_US)
+            for reg, value in plan:
+                self._bus.writeto_mem(self.address, reg, bytes((value,)))
+        except OSError:
+            self.bus_errors += 1
+            self.status = STATUS_BUS_ERROR
+            return False
+        fs = _index(GYRO_RANGES_DPS, gyro_range_dps, "")
+        afs = _index(ACCEL_RANGES_G, accel_range_g, "")
+        self.gyro_range_dps = gyro_range_dps
+        self.accel_range_g = accel_range_g
+        self.rate_hz = rate_hz
+        self._gyro_k16 = DEG_TO_RAD / GYRO_LSB_PER_DPS[fs] / 16.0
+        self._accel_k = GRAVITY_M_S2 / ACCEL_LSB_PER_G[afs]
+        self.set_gyro_bias16(self._bias16_x, self._bias16_y, self._bias16_z)
+        self.status = STATUS_OK
+        return True
+
+    def read(self, gyro_rad_s, accel_m_s2):
+        """One 14-byte burst from ACCEL_XOUT_H, decoded by hand, into FRD rad/s and m/s².
+
+        False (arrays untouched) on a bus error, which is counted in bus_errors.
+        """
+        buf = self._buf
+        try:
+            self._bus.readfrom_mem_into(self.address, _ACCEL_XOUT_H, buf)
+        except OSError:
+            self.bus_errors += 1
+            return False
+        # Big-endian signed 16-bit (RM §4.17-4.19: _H register first).
+        ax = (buf[0] << 8) | buf[1]
+        if ax & 0x8000:
+            ax -= 0x10000
+        ay = (buf[2] << 8) | buf[3]
+        if ay & 0x8000:
+            ay -= 0x10000
+        az = (buf[4] << 8) | buf[5]
+        if az & 0x8000:
+            az -= 0x10000
+        t = (buf[6] << 8) | buf[7]
+        if t & 0x8000:
+            t -= 0x10000
+        gx = (buf[8] << 8) | buf[9]
+        if gx & 0x8000:
+            gx -= 0x10000
+        gy = (buf[10] << 8) | buf[11]
+        if gy & 0x8000:
+            gy -= 0x10000
+        gz = (buf[12] << 8) | buf[13]
+        if gz & 0x8000:
+            gz -= 0x10000
+        self.temp_raw = t
+        self._watch(gx, gy, gz, ax, ay, az)
+        o = self._orientation
+        # Bias in 1/16 LSB keeps sub-LSB calibration without floats; |gx*16| < 2**20.
+        o.rotate_scaled(gx * 16 - self._bias16_x, gy * 16 - self._bias16_y, gz * 16 - self._bias16_z,
+                        self._gyro_k16, gyro_rad_s)
+        o.rotate_scaled(ax, ay, az, self._accel_k, accel_m_s2)
+        self.samples += 1
+        return True
+
+    def temperature_c(self):
+        """Die temperature of the newest sample: RM §4.18, TEMP_OUT / 340 + 36.53."""
+        return self.temp_raw / 340.0 + 36.53
+
+    def _read_gyro_raw(self):
+        b = self._gbuf
+        try:
+            self._bus.readfrom_mem_into(self.address, _GYRO_XOUT_H, b)
+        except OSError:
+            self.bus_errors += 1
+            return False
+        v = (b[0] << 8) | b[1]
+        self._raw_gx = v - 0x10000 if v & 0x8000 else v
+        v = (b[2] << 8) | b[3]
+        self._raw_gy = v - 0x10000 if v & 0x8000 else v
+        v = (b[4] << 8) | b[5]
+        self._raw_gz = v - 0x10000 if v & 0x8000 else v
+        return True
+
+    def calibrate(self, samples=500, discard=500, still_dps=4.0, sample_delay_us=1000):
+        """Seed 000 boot calibration; see Imu.calibrate_gyro. True if it stayed still."""
+        return self.calibrate_gyro(samples, discard, still_dps, sample_delay_us)
