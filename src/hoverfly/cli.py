@@ -14,6 +14,8 @@ from hoverfly.errors import UserError
 # Modules that add sub-commands: each has register(subparsers).
 COMMAND_MODULES = (
     "hoverfly.cli_fly",
+    "hoverfly.cli_rx",
+    "hoverfly.cli_esc",
 )
 
 
