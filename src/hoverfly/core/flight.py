@@ -38,6 +38,7 @@ class GyroFilter:
         self.lpf2 = (Pt1(), Pt1(), Pt1())
         self.notch = (Biquad(), Biquad(), Biquad())
         self.notch_on = False
+        self.lpf2_on = False
 
     def configure(self, params, loop_hz):
         kind = params.get("gyro_lpf1_type")
@@ -46,17 +47,21 @@ class GyroFilter:
             self.lpf2[i].configure(params.get("gyro_lpf2_hz"), loop_hz)
             self.notch[i].configure_notch(params.get("gyro_notch1_hz"), params.get("gyro_notch1_cut"), loop_hz)
         self.notch_on = params.get("gyro_notch1_hz") > 0 and params.get("gyro_notch1_cut") > 0
+        self.lpf2_on = 0 < params.get("gyro_lpf2_hz") < loop_hz // 2
 
     def update(self, raw, bias, out):
         lpf1 = self.lpf1
         lpf2 = self.lpf2
-        if self.notch_on:
+        if self.notch_on:  # the full chain
             notch = self.notch
             for i in range(3):
                 out[i] = notch[i].update(lpf2[i].update(lpf1[i].update(raw[i] - bias[i])))
-        else:
+        elif self.lpf2_on:
             for i in range(3):
                 out[i] = lpf2[i].update(lpf1[i].update(raw[i] - bias[i]))
+        else:
+            for i in range(3):
+                out[i] = lpf1[i].update(raw[i] - bias[i])
 
 
 class AccelFilter:

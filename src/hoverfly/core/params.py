@@ -34,7 +34,7 @@ PARAMS = (
     # --- gyro and accelerometer
     ("gyro_lpf1_type",   "pt1",    0,      0,    FILTER_TYPES,  LIVE,   "gyro low-pass 1 type"),
     ("gyro_lpf1_hz",       250,    0,    1000,   "Hz",          LIVE,   "gyro low-pass 1 cutoff, 0 = off"),
-    ("gyro_lpf2_hz",       500,    0,    1000,   "Hz",          LIVE,   "gyro low-pass 2 (PT1) cutoff, 0 = off"),
+    ("gyro_lpf2_hz",       500,    0,    4000,   "Hz",          LIVE,   "gyro low-pass 2 (PT1) cutoff; off at or above half the loop rate"),
     ("gyro_notch1_hz",       0,    0,    1000,   "Hz",          LIVE,   "gyro notch centre, 0 = off"),
     ("gyro_notch1_cut",      0,    0,    1000,   "Hz",          LIVE,   "gyro notch lower cutoff (sets its width)"),
     ("acc_lpf_hz",          25,    0,     500,   "Hz",          LIVE,   "accelerometer low-pass (PT2) for the estimator, 0 = off"),

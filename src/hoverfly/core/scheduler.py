@@ -30,6 +30,7 @@ class Scheduler:
         self.jitter_sum_us = 0
         self.overruns = 0
         self._last_us = 0
+        self._next_due_us = 0
 
     def add(self, name, rate_hz, fn):
         self.tasks.append(Task(name, rate_hz, fn))
@@ -39,6 +40,7 @@ class Scheduler:
         self._last_us = now_us
         for t in self.tasks:
             t.next_us = now_us
+        self._next_due_us = now_us
 
     def pass_started(self, now_us):
         """Record the cycle time of the pass starting now."""
@@ -60,6 +62,10 @@ class Scheduler:
             self.overruns += 1
 
     def run(self, now_us):
+        # Most passes run no task: one comparison against the earliest due time.
+        if ticks_diff(now_us, self._next_due_us) < 0:
+            return
+        first = None
         for t in self.tasks:
             if ticks_diff(now_us, t.next_us) >= 0:
                 t.runs += 1
@@ -68,6 +74,9 @@ class Scheduler:
                 if ticks_diff(now_us, nxt) >= 0:
                     nxt = ticks_add(now_us, t.period_us)
                 t.next_us = nxt
+            if first is None or ticks_diff(t.next_us, first) < 0:
+                first = t.next_us
+        self._next_due_us = first
 
     def stats_reset(self):
         self.cycle_max_us = 0

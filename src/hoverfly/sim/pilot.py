@@ -64,11 +64,11 @@ class Pilot:
         self._flip_turned_rad = 0.0
 
     # --------------------------------------------------------------------- update
-    def update(self, t, dt, v):
+    def update(self, t, dt, v, euler=None):
         roll_stick = self.roll
         pitch_stick = self.pitch
         throttle = self.throttle
-        roll, pitch, yaw = v.euler_rad()
+        roll, pitch, yaw = euler if euler is not None else v.euler_rad()
         cos_tilt = math.cos(roll) * math.cos(pitch)
 
         if self.hold_alt_m is not None:

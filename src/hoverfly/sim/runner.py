@@ -182,7 +182,8 @@ class SimRun:
             if gust_until is not None and t >= gust_until:
                 v.wind_n, v.wind_e, v.wind_d = base_wind
                 gust_until = None
-            pilot.update(t, dt, v)
+            euler = v.euler_rad()  # what the pilot sees: the state at the start of this step
+            pilot.update(t, dt, v, euler)
             v.servo_cmd = board.servo_cmd[0]
             v.step(dt, board.motor_cmd)
             board.sim_us += period_us
@@ -204,8 +205,8 @@ class SimRun:
                 overruns += 1
             if self.on_step is not None:
                 self.on_step(self)
-            # judge
-            roll, pitch, yaw = v.euler_rad()
+            # judge (on the attitude the pilot saw: at most one loop period old)
+            roll, pitch, yaw = euler
             airborne = not v.on_ground
             if airborne and stats["airborne_at"] is None:
                 stats["airborne_at"] = t
@@ -223,7 +224,8 @@ class SimRun:
                     stats["drift"] = d
             if airborne and t >= judge_from and stats["airborne_at"] is not None \
                     and t - stats["airborne_at"] > 1.0:
-                tilt = v.tilt_rad() * _DEG
+                c = math.cos(roll) * math.cos(pitch)
+                tilt = math.acos(1.0 if c > 1.0 else (-1.0 if c < -1.0 else c)) * _DEG
                 stats["tilt_sq"] += tilt * tilt
                 stats["tilt_n"] += 1
                 if tilt > stats["max_tilt"]:
