@@ -8,6 +8,8 @@ throttle must be low to arm, and the switch must read "disarm" on `disarm_frames
 consecutive frames before a disarm, so one bad frame cannot drop a flying craft.
 """
 
+import math
+
 from hoverfly.compat import const, ticks_diff
 from hoverfly.core.events import (
     DISARM_SWITCH,
@@ -106,8 +108,6 @@ class Arming:
         self.boot_grace_us = 0
 
     def configure(self, params):
-        import math
-
         self.small_angle_cos = math.cos(params.get("small_angle") * math.pi / 180.0)
         self.disarm_frames_needed = params.get("disarm_frames")
         self.boot_grace_us = params.get("boot_grace_ms") * 1000

@@ -93,7 +93,6 @@ class Flight:
         self.accel_filter = AccelFilter()
         self.mahony = Mahony()
         self.external = ExternalAttitude()
-        self.estimator = self.mahony
         self.rc = RcInput()
         self.controller = Controller()
         self.mixer = Mixer()
@@ -108,7 +107,6 @@ class Flight:
         self._last_us = 0
         self._imu_us = 0
         self._imu_stale_us = 20000
-        self._zero_bias = self.mahony.bias_rad_s  # placeholder, replaced in configure
         self.imu_ok = True
         self.rx_ok = False
         self.last_frame_us = 0
@@ -138,7 +136,6 @@ class Flight:
         self.accel_filter.configure(p, hz)
         self.mahony.configure(p)
         self._use_external = p.get("estimator") == "external"
-        self.estimator = self.external if self._use_external else self.mahony
         self.rc.configure(p, hz)
         self.controller.configure(p, hz)
         self.mixer.configure(p)

@@ -68,7 +68,6 @@ class Vehicle:
         self.drag_n_per_m2_s2 = a["drag_coef"]
         self.ang_damping = a.get("angular_damping", 0.0)
         self.rotor_drag = a.get("rotor_drag_coef", 0.0)
-        self.hover_current_a = 0.0
         self.idle_current_a = a.get("idle_current_a", 0.5)
         # Momentum theory: power = T^1.5 / sqrt(2 rho A) / figure of merit / drive efficiency.
         disc = math.pi * (a["prop_diameter_m"] * 0.5) ** 2
