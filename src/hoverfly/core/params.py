@@ -115,6 +115,12 @@ PARAMS = (
     ("fs_procedure", "land", 0,      0,    FAILSAFE_PROCEDURES, LIVE, "stage 2: drop, land or glide"),
     ("fs_throttle", 1300, 1000,    2000,   "us",          LIVE,   "throttle while failsafe lands"),
     ("fs_land_max_ms",   20000, 1000,  120000,   "ms",          LIVE,   "failsafe landing disarms after this at the latest"),
+    # --- receiver wire (protocol, link watch, telemetry)
+    # --- motor and servo outputs (protocol, output failsafe, motor test)
+    # --- autopilot link and built-in test
+    # --- configuration links (CLI, MSP, maintenance protocol, storage)
+    # --- flight log
+    # --- board (rp2 pins and devices)
 )
 # fmt: on
 
