@@ -2,7 +2,9 @@
 
 A new frame (`new_frame`) maps channels (AETR by default), applies the deadband and
 reads the AUX mode ranges (Betaflight style: channel plus µs range per mode). Every
-pass (`update`) smooths the sticks (PT2 at rc_smoothing_hz) and turns them into the
+pass (`update`) smooths the sticks (rc_smooth_type: PT2 or PT1 at rc_smoothing_hz, or
+seed 001's alpha-beta; throttle_norm is the raw stick or, with thr_mode = bands, seed
+001's DESCEND/HOVERING/CLIMB value for the stick's third) and turns them into the
 setpoint: rates through the "actual" curve, angles through angle_limit. Stage 3 of the
 pass, with the commander choosing whose input it is.
 """
@@ -10,7 +12,7 @@ pass, with the commander choosing whose input it is.
 import math
 
 from hoverfly.core.control import MODE_ACRO, MODE_ANGLE, MODE_HORIZON
-from hoverfly.core.filters import Pt2
+from hoverfly.core.filters import AlphaBeta, Pt1, Pt2
 from hoverfly.core.rates import ActualRates
 
 _DEG = math.pi / 180.0
@@ -47,6 +49,8 @@ class RcInput:
         self._arm = (5, 1700, 2100)
         self._angle = (6, 1300, 2100)
         self._horizon = (6, 1300, 1700)
+        self._smooth_type = "pt2"
+        self._thr_bands = None  # seed 001: (DESCEND, HOVERING, CLIMB) µs, or None for the raw stick
 
     def configure(self, params, loop_hz):
         rc = (("roll_rc_rate", "roll_srate", "roll_expo"), ("pitch_rc_rate", "pitch_srate", "pitch_expo"),
@@ -54,8 +58,20 @@ class RcInput:
         for axis in range(3):
             names = rc[axis]
             self.rates[axis].configure(params.get(names[0]), params.get(names[1]), params.get(names[2]))
+        kind = params.get("rc_smooth_type")
+        if kind != self._smooth_type:
+            cls = AlphaBeta if kind == "alphabeta" else (Pt1 if kind == "pt1" else Pt2)
+            self.filters = (cls(), cls(), cls(), cls())
+            self._smooth_type = kind
         for f in self.filters:
-            f.configure(params.get("rc_smoothing_hz"), loop_hz)
+            if kind == "alphabeta":
+                f.configure(params.get("rc_ab_alpha"), params.get("rc_ab_beta"), loop_hz)
+            else:
+                f.configure(params.get("rc_smoothing_hz"), loop_hz)
+        if params.get("thr_mode") == "bands":
+            self._thr_bands = (params.get("thr_descend_us"), params.get("thr_hover_us"), params.get("thr_climb_us"))
+        else:
+            self._thr_bands = None
         m = _MAPS[params.get("map_aetr")]
         self.roll_ch = m[0]
         self.pitch_ch = m[1]
@@ -92,6 +108,10 @@ class RcInput:
         self.stick_raw[2] = self._stick(channels_us[self.yaw_ch], self.yaw_deadband_us)
         t = channels_us[self.throttle_ch]
         self.throttle_us = t
+        b = self._thr_bands
+        if b is not None:
+            # Seed 001: the stick's third (1000-1332, 1333-1665, 1666-2000 µs) picks a stored value.
+            t = b[0] if t < 1333 else (b[1] if t < 1666 else b[2])
         thr = (t - 1000) * 0.001
         self.throttle_raw = 0.0 if thr < 0.0 else (1.0 if thr > 1.0 else thr)
         a = self._arm
