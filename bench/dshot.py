@@ -1,4 +1,5 @@
-"""DShot output codec cost: µs to build four frames (float and integer paths), bytes allocated, eRPM decode.
+"""DShot output codec cost: µs to build four frames (float and integer paths, and the board's whole
+output codec `OutputEncoder.write`: motor order, command queue, failsafe stamp), bytes allocated, eRPM decode.
 
 Run: `.venv/bin/python bench/dshot.py` and
 `MICROPYPATH=src:.frozen .venv/bin/micropython -X heapsize=192k bench/dshot.py`.
@@ -18,6 +19,8 @@ from hoverfly.compat import (
     ticks_diff,
     ticks_us,
 )
+from hoverfly.core.output import OutputEncoder
+from hoverfly.core.params import Params
 from hoverfly.protocols.dshot import DshotEncoder, ErpmDecoder, dshot_frame, gcr_encode
 
 RUNS = 5
@@ -29,6 +32,12 @@ VALUES = array("H", [158, 900, 1600, 2047])
 OUT = array("H", [0] * 4)
 CODE = gcr_encode(0x5F41)
 DEC = ErpmDecoder(14)
+_P = Params()
+_P.set("dshot_bidir", 1)
+_P.set("motor_order", 2143)
+BOARD_OUT = OutputEncoder()
+BOARD_OUT.configure(_P, 4, 0, ticks_us())
+BOARD_OUT.commands.clear()  # the boot commands would otherwise be dropped by the first spinning write
 
 
 def op_encode_motors():
@@ -45,6 +54,10 @@ def op_four_frames():
     OUT[1] = f(900, 0, True)
     OUT[2] = f(1600, 0, True)
     OUT[3] = f(2047, 0, True)
+
+
+def op_output_encoder_write():
+    BOARD_OUT.write(MOTORS, 4, 0)
 
 
 def op_decode_reply():
@@ -87,6 +100,7 @@ def main():
         ("encode_motors_4_float", op_encode_motors),
         ("encode_values_4_int", op_encode_values),
         ("dshot_frame_x4", op_four_frames),
+        ("output_encoder_write_4", op_output_encoder_write),
         ("erpm_decode_code", op_decode_reply),
     )
     parts = ['"implementation": "%s"' % sys.implementation.name]

@@ -1,0 +1,387 @@
+"""The output stage: mixer demand in, motor and servo commands out, and the board's output codec.
+
+Step 6 of the pass, in two halves on either side of `board.write_motors`:
+
+- `OutputStage` (in `Flight`): motor demand 0..1 from the mixer -> `motor_out`, the Board
+  contract's scale (0 = stop, otherwise idle..max): `motor_idle_pct` is the armed floor,
+  `motor_max_pct` the ceiling. Disarmed gives 0 whatever the mixer says. Demand outside 0..1
+  (or NaN) is clamped and counted. hoverfly has no 3D mode: 0..1 runs one way only. Servo
+  positions (tri tail, fixed-wing surfaces) pass through, centred while disarmed. With
+  bidirectional DShot it decodes the ESCs' eRPM replies (21-bit GCR line codes from the board)
+  into eRPM and RPM per motor, rejecting corrupted replies by their GCR and CRC checks.
+- `OutputEncoder` (held by a board): `motor_out` -> what the wire carries, for the protocol
+  picked by `motor_protocol`: DShot150/300/600/1200 16-bit frames (`words`) or OneShot125,
+  OneShot42, Multishot, PWM pulse widths in µs (`pulse_us`); servos as PWM widths
+  (`servo_us`). It maps motors to output lines (`motor_order`), sends the DShot boot commands
+  while every motor is stopped (3D mode off; spin direction for `motor_reversed`), and keeps
+  the OUTPUT FAILSAFE: the board's output timer calls `tick(now_us)`; when no fresh command
+  came for `output_fs_ms` (100 ms, seed 002) every output goes to its disarmed value (DShot 0,
+  the protocol's minimum pulse, servo centre) until commands resume.
+
+Portable: runs on the Pico (MicroPython) and in the simulator. Nothing here allocates per pass
+except float results.
+"""
+
+from array import array
+
+from hoverfly.compat import ticks_diff
+from hoverfly.core.mixer import MAX_MOTORS
+from hoverfly.core.params import row
+from hoverfly.protocols import analog
+from hoverfly.protocols.dshot import (
+    CMD_3D_MODE_OFF,
+    CMD_SPIN_DIRECTION_NORMAL,
+    CMD_SPIN_DIRECTION_REVERSED,
+    KIND_ERPM,
+    DshotCommandQueue,
+    DshotEncoder,
+    ErpmDecoder,
+    dshot_frame,
+)
+
+# The `motor_protocol` choices: dshot150, dshot300, dshot600, dshot1200, oneshot125, oneshot42,
+# multishot, pwm (the table row holds the list; the maps below follow its order).
+PROTOCOLS = row("motor_protocol")[4]
+_DSHOT_KBIT = (150, 300, 600, 1200)
+_ANALOG = (analog.ONESHOT125, analog.ONESHOT42, analog.MULTISHOT, analog.PWM)
+MAX_SERVOS = 4
+
+
+def protocol_index(name):
+    """Index into PROTOCOLS, -1 if unknown."""
+    for i in range(len(PROTOCOLS)):
+        if PROTOCOLS[i] == name:
+            return i
+    return -1
+
+
+def dshot_speed_kbit(name):
+    """150/300/600/1200 for a DShot protocol name, 0 for an analog one (or unknown)."""
+    i = protocol_index(name)
+    return _DSHOT_KBIT[i] if 0 <= i < 4 else 0
+
+
+def analog_protocol(name):
+    """analog.PWM/ONESHOT125/... for an analog protocol name, -1 for DShot (or unknown)."""
+    i = protocol_index(name)
+    return _ANALOG[i - 4] if i >= 4 else -1
+
+
+def parse_motor_order(value, count):
+    """`motor_order` (decimal digits: digit k = output line of motor k, 0 = in order) -> (bytes, error).
+
+    2143 on a quad: motor 1 on output 2, motor 2 on 1, motor 3 on 4, motor 4 on 3. The result
+    maps motor index -> line index (0-based). A value that is not a permutation of 1..count
+    gives the identity and an error string naming the problem.
+    """
+    ident = bytes(range(count))
+    if value == 0:
+        return ident, ""
+    digits = []
+    v = value
+    while v > 0:
+        digits.append(v % 10)
+        v //= 10
+    digits.reverse()
+    if len(digits) != count:
+        return ident, "motor_order %d needs %d digits, one per motor" % (value, count)
+    seen = 0
+    for d in digits:
+        if d < 1 or d > count or seen & (1 << d):
+            return ident, "motor_order %d is not an order of outputs 1..%d" % (value, count)
+        seen |= 1 << d
+    return bytes([d - 1 for d in digits]), ""
+
+
+class OutputStage:
+    """Mixer demand -> motor_out (0 stop, idle..max), servo pass-through, eRPM replies -> RPM."""
+
+    def __init__(self):
+        self.motor_count = 4
+        self.idle = 0.055
+        self.motor_max = 1.0
+        self.clamped = 0  # motor demand outside 0..1 or NaN
+        self.bidir = False
+        self.error = ""  # a configuration the board's encoder will also refuse (e.g. motor_order)
+        self.decoders = [ErpmDecoder(14) for _ in range(MAX_MOTORS)]
+        self.reply_codes = array("i", [0] * MAX_MOTORS)  # filled by board.read_motor_telemetry
+        self.replies = 0
+        self.reply_errors = 0  # GCR or CRC failures: the value is kept from the last good reply
+
+    def configure(self, params, motor_count):
+        self.motor_count = motor_count
+        self.idle = params.get("motor_idle_pct") * 0.01
+        self.motor_max = params.get("motor_max_pct") * 0.01
+        if self.motor_max < self.idle:
+            self.motor_max = self.idle
+        self.bidir = dshot_speed_kbit(params.get("motor_protocol")) > 0 and params.get("dshot_bidir") == 1
+        poles = params.get("motor_poles")
+        for d in self.decoders:
+            d.pole_count = poles
+        self.error = parse_motor_order(params.get("motor_order"), motor_count)[1]
+
+    def update(self, motor_norm, armed, motor_out):
+        """motor_out[i] = idle + (max - idle) * demand while armed, 0 (stop) while disarmed."""
+        n = self.motor_count
+        if not armed:
+            for i in range(n):
+                motor_out[i] = 0.0
+            return
+        idle = self.idle
+        span = self.motor_max - idle
+        for i in range(n):
+            m = motor_norm[i]
+            if m > 1.0:
+                m = 1.0
+                self.clamped += 1
+            elif not (m >= 0.0):  # below 0, or NaN: the floor, never a wrap to full
+                m = 0.0
+                self.clamped += 1
+            motor_out[i] = idle + span * m
+
+    def servos(self, servo_in, count, armed, servo_out):
+        """Servo positions -1..1 (clamped, counted); centre while disarmed."""
+        for i in range(count):
+            s = servo_in[i] if armed else 0.0
+            if s > 1.0:
+                s = 1.0
+                self.clamped += 1
+            elif s < -1.0:
+                s = -1.0
+                self.clamped += 1
+            elif s != s:
+                s = 0.0
+                self.clamped += 1
+            servo_out[i] = s
+
+    def decode_replies(self, count, erpm_out, rpm_out):
+        """Decode `reply_codes[0..count-1]` (21-bit GCR line codes, motor order) into eRPM and RPM.
+
+        A reply that fails its GCR or CRC check leaves that motor's values as they were and
+        counts in `reply_errors`; Extended DShot Telemetry frames update only the decoder.
+        """
+        decoders = self.decoders
+        codes = self.reply_codes
+        for i in range(count):
+            d = decoders[i]
+            kind = d.decode_code(codes[i])
+            if kind == KIND_ERPM:
+                erpm_out[i] = d.erpm
+                rpm_out[i] = d.rpm
+                self.replies += 1
+            elif kind < 0:
+                self.reply_errors += 1
+
+
+class OutputEncoder:
+    """motor_out / servo positions -> DShot words or pulse widths per output line, with the output failsafe.
+
+    A board holds one: `configure(params, motor_count, servo_count, now_us)` at boot,
+    `write(motor_out, count, now_us)` from `write_motors`, `write_servos(...)` from
+    `write_servos`, and `tick(now_us)` from its output timer (whatever the flight pass does).
+    Lines are in output order: `words[line]` (DShot), `pulse_us[line]` (analog),
+    `servo_us[i]`. `line_of_motor[m]` / `motor_of_line[line]` give the wiring.
+    """
+
+    def __init__(self):
+        self.protocol = "dshot600"
+        self.speed_kbit = 600
+        self.analog = -1
+        self.dshot = True
+        self.bidir = False
+        self.motor_count = 0
+        self.servo_count = 0
+        self.words = array("H", [0] * MAX_MOTORS)
+        self.pulse_us = array("f", [0.0] * MAX_MOTORS)
+        self.servo_us = array("f", [1500.0] * MAX_SERVOS)
+        self.line_of_motor = bytes(range(MAX_MOTORS))
+        self.motor_of_line = bytes(range(MAX_MOTORS))
+        self.reversed_mask = 0
+        self.rate_hz = 480
+        self.min_us = 1000.0
+        self.len_us = 1000.0
+        self.servo_min_us = 1000.0
+        self.servo_mid_us = 1500.0
+        self.servo_max_us = 2000.0
+        self.servo_rate_hz = 50
+        self.timeout_us = 100000
+        self.error = ""
+        self.clamped = 0  # commands outside their range, clamped (never wrapped)
+        self.writes = 0
+        self.failsafe = False  # outputs held at their disarmed values: no fresh command
+        self.failsafe_trips = 0
+        self.failsafe_at_us = 0
+        self._last_us = 0
+        self._written = False
+        self._stop_word = 0
+        self._dshot_enc = DshotEncoder(MAX_MOTORS, False, 0.0, True)
+        self._scratch = array("H", [0] * MAX_MOTORS)
+        self.commands = DshotCommandQueue(False, 2 + MAX_MOTORS)
+
+    # ------------------------------------------------------------------ set-up
+    def configure(self, params, motor_count, servo_count=0, now_us=0):
+        """Read the output parameters (at boot, or while disarmed); outputs start disarmed."""
+        if motor_count > MAX_MOTORS:
+            motor_count = MAX_MOTORS
+        if servo_count > MAX_SERVOS:
+            servo_count = MAX_SERVOS
+        self.motor_count = motor_count
+        self.servo_count = servo_count
+        name = params.get("motor_protocol")
+        self.protocol = name
+        self.speed_kbit = dshot_speed_kbit(name)
+        self.dshot = self.speed_kbit > 0
+        self.analog = analog_protocol(name)
+        self.bidir = self.dshot and params.get("dshot_bidir") == 1
+        errors = []
+        order, err = parse_motor_order(params.get("motor_order"), motor_count)
+        if err:
+            errors.append(err)
+        self.line_of_motor = order
+        inv = bytearray(range(MAX_MOTORS))
+        for m in range(motor_count):
+            inv[order[m]] = m
+        self.motor_of_line = bytes(inv)
+        self.reversed_mask = params.get("motor_reversed") & ((1 << motor_count) - 1)
+        self.timeout_us = params.get("output_fs_ms") * 1000
+        self.rate_hz = params.get("motor_pwm_rate")
+        if self.dshot:
+            self._dshot_enc = DshotEncoder(motor_count, self.bidir, 0.0, True)
+            self._stop_word = dshot_frame(0, 0, self.bidir)
+        else:
+            err = analog.validate_rate(self.analog, self.rate_hz)
+            if err:
+                errors.append(err)
+                lo, hi = analog.rate_limits_hz(self.analog)
+                self.rate_hz = lo if self.rate_hz < lo else hi
+            self.min_us, hi_us = analog.pulse_range_us(self.analog)
+            self.len_us = hi_us - self.min_us
+        s_min = params.get("servo_min_us")
+        s_mid = params.get("servo_mid_us")
+        s_max = params.get("servo_max_us")
+        self.servo_rate_hz = params.get("servo_pwm_rate")
+        err = analog.validate_servo(self.servo_rate_hz, s_min, s_mid, s_max)
+        if err:
+            errors.append(err)
+            s_min, s_mid, s_max = 1000, 1500, 2000
+        self.servo_min_us = float(s_min)
+        self.servo_mid_us = float(s_mid)
+        self.servo_max_us = float(s_max)
+        self.error = "; ".join(errors)
+        self.commands = DshotCommandQueue(self.bidir, 2 + MAX_MOTORS)
+        if self.dshot:
+            self._queue_boot_commands()
+        self._last_us = now_us
+        self._written = False
+        self.failsafe = False
+        self._set_disarmed()
+
+    def _queue_boot_commands(self):
+        # 3D off first: hoverfly maps 0..1 one way; an ESC left in 3D mode by another controller
+        # would read 48 as full reverse. Then spin direction, only when some motor is reversed
+        # (SPIN_DIRECTION_NORMAL / _REVERSED are relative to the ESC's own setting, not saved).
+        self.commands.push(CMD_3D_MODE_OFF, False, -1)
+        mask = self.reversed_mask
+        if mask:
+            for m in range(self.motor_count):
+                cmd = CMD_SPIN_DIRECTION_REVERSED if mask & (1 << m) else CMD_SPIN_DIRECTION_NORMAL
+                self.commands.push(cmd, False, self.line_of_motor[m])
+
+    def _set_disarmed(self):
+        # SAFETY: the disarmed value of every line: DShot 0 (stop), the minimum pulse, servo centre.
+        if self.dshot:
+            w = self._stop_word
+            words = self.words
+            for i in range(self.motor_count):
+                words[i] = w
+        else:
+            p = self.pulse_us
+            lo = self.min_us
+            for i in range(self.motor_count):
+                p[i] = lo
+        s = self.servo_us
+        mid = self.servo_mid_us
+        for i in range(self.servo_count):
+            s[i] = mid
+
+    # ---------------------------------------------------------------- the pass
+    def write(self, motor_out, count, now_us):
+        """Encode motor_out[0..count-1] (0 = stop, otherwise idle..1) onto the lines; a fresh command."""
+        n = self.motor_count
+        if count < n:
+            n = count
+        lines = self.line_of_motor
+        spinning = False
+        if self.dshot:
+            enc = self._dshot_enc
+            scratch = self._scratch
+            before = enc.clamped
+            enc.motor_count = n
+            enc.encode_motors(motor_out, True, scratch)
+            if enc.clamped != before:
+                self.clamped += enc.clamped - before
+            words = self.words
+            stop = self._stop_word
+            for m in range(n):
+                w = scratch[m]
+                words[lines[m]] = w
+                if w != stop:
+                    spinning = True
+            # DShot commands go out only while every motor is stopped; a spinning motor drops them.
+            self.commands.apply(now_us, spinning, words)
+        else:
+            p = self.pulse_us
+            lo = self.min_us
+            span = self.len_us
+            for m in range(n):
+                t = motor_out[m]
+                if t > 1.0:
+                    t = 1.0
+                    self.clamped += 1
+                elif not (t >= 0.0):
+                    t = 0.0
+                    self.clamped += 1
+                p[lines[m]] = lo + span * t
+        self._last_us = now_us
+        self._written = True
+        self.failsafe = False
+        self.writes += 1
+
+    def write_servos(self, servo_norm, count, now_us):
+        """Servo positions -1..1 -> widths: each side of centre linear to its end point."""
+        n = self.servo_count
+        if count < n:
+            n = count
+        s = self.servo_us
+        mid = self.servo_mid_us
+        up = self.servo_max_us - mid
+        down = mid - self.servo_min_us
+        for i in range(n):
+            x = servo_norm[i]
+            if x > 1.0:
+                x = 1.0
+                self.clamped += 1
+            elif x < -1.0:
+                x = -1.0
+                self.clamped += 1
+            elif x != x:
+                x = 0.0
+                self.clamped += 1
+            s[i] = mid + (up if x >= 0.0 else down) * x
+
+    def tick(self, now_us):
+        """The output timer's check; True while the output failsafe holds every line at its disarmed value.
+
+        # SAFETY: a pass that stops writing (stalled, crashed, stuck in a loop) must not leave the
+        # motors at its last command: after `output_fs_ms` without a write every output is disarmed.
+        """
+        if self.failsafe:
+            return True
+        if ticks_diff(now_us, self._last_us) > self.timeout_us:
+            self.failsafe = True
+            if self._written:
+                self.failsafe_trips += 1
+                self.failsafe_at_us = now_us
+            self._set_disarmed()
+            return True
+        return False
