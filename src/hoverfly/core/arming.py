@@ -1,11 +1,21 @@
-"""Arming: may the motors spin? Named disable reasons, arm-switch handling, disarm rules.
+"""Arming: may the motors spin? Named disable reasons, arm sources, disarm rules.
+
+Takes the state of every stage once per slow-task pass (`check`) and each new arm-switch
+reading (`on_switch`); gives `armed`, the disable-reason bitfield `flags` and an event for
+every decision. Sits beside the pass: the outputs stage reads `armed` as its last word.
 
 Each reason is a bit (Betaflight 4.5's numbering for the ones Betaflight has, so MSP
-clients read them right; hoverfly's own follow) with a plain-language sentence. The
-arm switch arms on its rising edge only when no reason is set; a switch found on at
-boot, or on when arming was refused, must be toggled (ARM_SWITCH). Seed 000's rules:
-throttle must be low to arm, and the switch must read "disarm" on `disarm_frames`
-consecutive frames before a disarm, so one bad frame cannot drop a flying craft.
+clients read them right; hoverfly's own follow from 26) with a plain-language sentence.
+Arm sources:
+- the pilot's arm switch (`arm_source` = range: AUX `arm_ch` inside arm_min_us..arm_max_us;
+  seed001: channel `arm_ch` above 1500 µs, seed 001's rule). The switch arms on its rising
+  edge only when no reason is set; a switch found on at boot, or on when arming was refused,
+  must be toggled (ARM_SWITCH);
+- the autopilot over MSP (seed 004), through `try_arm` with the autopilot's own throttle,
+  only when the enabling procedure allows it (core/autopilot.py decides).
+Seed 000's rules hold for every source: throttle must be low to arm, and the switch must read
+"disarm" on `disarm_frames` consecutive frames before a disarm, so one bad frame cannot drop
+a flying craft (the receiver keeps the last good values on an invalid frame).
 """
 
 import math
@@ -48,24 +58,48 @@ REASONS = {
     RX_FAILSAFE: ("RXLOSS", "receiver lost: no valid frames"),
     NOT_DISARMED: ("NOT_DISARMED", "disarm first: the craft is still armed by another source"),
     BOXFAILSAFE: ("BOXFAILSAFE", "the failsafe switch is on"),
-    CRASH_DETECTED: ("CRASH", "a crash was detected: disarm and re-arm"),
+    CRASH_DETECTED: ("CRASH", "a crash was detected: switch the arm switch off"),
     THROTTLE: ("THROTTLE", "throttle is not low"),
     ANGLE: ("ANGLE", "not level: tilted beyond small_angle"),
     BOOT_GRACE_TIME: ("BOOTGRACE", "still booting"),
     LOAD: ("LOAD", "the flight loop is overrunning (CPU load)"),
     CALIBRATING: ("CALIB", "gyro not calibrated yet: keep the craft still"),
     CLI: ("CLI", "a configuration session (CLI) is open"),
-    MSP: ("MSP", "arming disabled over MSP"),
+    MSP: ("MSP", "a configurator (MSP) session is open, or arming was disabled over MSP"),
     REBOOT_REQUIRED: ("REBOOT_REQD", "a changed setting needs a reboot"),
     ACC_CALIBRATION: ("NO_ACC_CAL", "accelerometer not calibrated"),
     MOTOR_PROTOCOL: ("MOTOR_PROTO", "no motor protocol configured"),
     ARM_SWITCH: ("ARMSWITCH", "arm switch was on: switch it off, then on"),
     MOTOR_TEST: ("MOTOR_TEST", "motor test is active"),
-    BATTERY_CRITICAL: ("BATTERY", "battery critical"),
-    BIT_FAILED: ("BIT", "built-in test failed"),
+    BATTERY_CRITICAL: ("BATTERY", "battery critical: below vbat_min_cell per cell"),
+    BIT_FAILED: ("BIT", "built-in test failed (see the BIT status)"),
     MAINTENANCE: ("MAINTENANCE", "a maintenance session is open"),
     AUTOPILOT: ("AUTOPILOT", "autopilot mode: only the autopilot may arm"),
 }
+
+# flight.config_session bits (set by the configuration links) -> the reason each one raises.
+SESSION_CLI = const(1)
+SESSION_MSP = const(2)
+SESSION_MAINTENANCE = const(4)
+
+# Who armed (detail of the `armed` event).
+SOURCE_SWITCH = const(0)
+SOURCE_AUTOPILOT = const(1)
+SOURCE_NAMES = ("switch", "autopilot")
+
+ARM_SOURCES = ("range", "seed001")
+
+
+def session_flags(config_session):
+    """Disable bits for an open configuration session bitmask (1 CLI, 2 MSP, 4 maintenance)."""
+    f = 0
+    if config_session & SESSION_CLI:
+        f |= 1 << CLI
+    if config_session & SESSION_MSP:
+        f |= 1 << MSP
+    if config_session & SESSION_MAINTENANCE:
+        f |= 1 << MAINTENANCE
+    return f
 
 
 def reason_names(flags):
@@ -92,25 +126,37 @@ def first_reason(flags):
     return -1
 
 
+def reason_bit(name):
+    """The bit of a reason name (as REASONS spells it), or -1."""
+    for bit in REASONS:
+        if REASONS[bit][0] == name:
+            return bit
+    return -1
+
+
 class Arming:
     def __init__(self, events):
         self.events = events
         self.armed = False
+        self.armed_by = SOURCE_SWITCH
         self.flags = 0  # arming-disable reasons now
-        self.extra_flags = 0  # reasons set by other stages (cli, msp, motor test ...)
+        self.extra_flags = 0  # reasons set by other stages through set_flag (MSP_SET_ARMING_DISABLED ...)
         self.armed_at_us = 0
         self.boot_us = 0
+        self.gate = None  # an object with pilot_may_arm() (the autopilot): False = the switch may not arm
         self._switch_was_on = False
         self._need_toggle = True  # until the switch has been seen off once
         self._disarm_frames = 0
         self.disarm_frames_needed = 5
         self.small_angle_cos = 0.906
         self.boot_grace_us = 0
+        self.source = ARM_SOURCES[0]
 
     def configure(self, params):
         self.small_angle_cos = math.cos(params.get("small_angle") * math.pi / 180.0)
         self.disarm_frames_needed = params.get("disarm_frames")
         self.boot_grace_us = params.get("boot_grace_ms") * 1000
+        self.source = params.get("arm_source")
 
     def set_flag(self, bit, on):
         if on:
@@ -118,9 +164,10 @@ class Arming:
         else:
             self.extra_flags &= ~(1 << bit)
 
-    def check(self, now_us, gyro_ok, calibrated, rx_ok, throttle_low, cos_tilt, overloaded):
-        """Recompute the disable reasons (slow task)."""
-        f = self.extra_flags
+    def check(self, now_us, gyro_ok, calibrated, rx_ok, throttle_low, cos_tilt, overloaded, more=0):
+        """Recompute the disable reasons (slow task). `more`: bits the caller computed (sessions,
+        motor test, battery, BIT, failsafe, crash, autopilot)."""
+        f = self.extra_flags | more
         if not gyro_ok:
             f |= 1 << NO_GYRO
         if not calibrated:
@@ -148,12 +195,17 @@ class Arming:
                 self._switch_was_on = True
                 if self._need_toggle:
                     return
+                gate = self.gate
+                if gate is not None and not gate.pilot_may_arm():
+                    # Seed 004: in autopilot mode the switch grants the autopilot its privilege
+                    # instead of arming; the autopilot records that. Not a refusal.
+                    return
                 blocked = self.flags & ~(1 << ARM_SWITCH)
                 if blocked:
                     self._need_toggle = True
                     self.events.record(now_us, EV_ARMING_BLOCKED, first_reason(blocked))
                 else:
-                    self.arm(now_us)
+                    self.arm(now_us, SOURCE_SWITCH)
         else:
             self._switch_was_on = False
             self._need_toggle = False
@@ -162,20 +214,27 @@ class Arming:
                 if self._disarm_frames >= self.disarm_frames_needed:
                     self.disarm(now_us, DISARM_SWITCH)
 
-    def try_arm(self, now_us):
-        """Arm from a source other than the switch (autopilot); returns the blocking flags or 0."""
-        blocked = self.flags & ~(1 << ARM_SWITCH)
+    def try_arm(self, now_us, source=SOURCE_AUTOPILOT, ignore=0):
+        """Arm from a source other than the switch; returns the blocking flags (0 = armed).
+
+        `ignore`: reasons that do not apply to this source (the autopilot passes AUTOPILOT).
+        ARM_SWITCH never applies: it is the switch's own toggle rule."""
+        if self.armed:
+            return 0
+        blocked = self.flags & ~((1 << ARM_SWITCH) | ignore)
         if blocked:
             self.events.record(now_us, EV_ARMING_BLOCKED, first_reason(blocked))
             return blocked
-        self.arm(now_us)
+        self.arm(now_us, source)
         return 0
 
-    def arm(self, now_us):
+    def arm(self, now_us, source=SOURCE_SWITCH):
         if not self.armed:
             self.armed = True
+            self.armed_by = source
             self.armed_at_us = now_us
-            self.events.record(now_us, EV_ARMED, 0)
+            self._disarm_frames = 0
+            self.events.record(now_us, EV_ARMED, source)
 
     def disarm(self, now_us, reason):
         if self.armed:

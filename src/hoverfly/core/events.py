@@ -55,8 +55,9 @@ DISARM_FAILSAFE = const(1)
 DISARM_LANDED = const(2)
 DISARM_CRASH = const(3)
 DISARM_IMU = const(4)
-DISARM_COMMAND = const(5)
-DISARM_REASONS = ("switch", "failsafe", "landed", "crash", "imu_fault", "command")
+DISARM_COMMAND = const(5)  # an MSP command: the autopilot's arm channel off
+DISARM_LOAD = const(6)  # loop overrun storm while armed
+DISARM_REASONS = ("switch", "failsafe", "landed", "crash", "imu_fault", "command", "load")
 
 
 class EventLog:

@@ -1,11 +1,23 @@
-"""Receiver failsafe, staged (seed 002: hold at 100 ms, act at 500 ms).
+"""Receiver failsafe, staged (seed 002: hold at 100 ms, act at 500 ms), and the fault watch.
 
-The link counts as lost `rx_timeout_ms` after its last valid frame. Stage 1 holds the
-last sticks, levelled when the craft flies in angle mode, for `fs_delay_ms`;
-stage 2 runs `fs_procedure`: drop (disarm), land (level, descend at
-`fs_throttle`, disarm on touchdown or after `fs_land_max_ms`) or glide (level,
-throttle off: fixed wing). A link that comes back ends stage 1 at once but not stage 2:
-the pilot must disarm, or move the sticks out of centre, to take over (as Betaflight).
+`Failsafe` takes the link state (`rx_ok`, `last_frame_us`) and the armed state once per
+slow-task pass and gives the stage the commander obeys. The link counts as lost
+`rx_timeout_ms` after its last valid frame (default 100 ms). Stage 1 holds the last throttle
+with the sticks centred in angle mode (levelled) until `rx_timeout_ms + fs_delay_ms` after
+the last valid frame (default 500 ms, seed 002's RC failsafe); stage 2 runs `fs_procedure`:
+- drop: disarm;
+- land: level, descend at `fs_land_m_s` (a vertical-speed loop on the accelerometer around
+  the hover throttle learnt while flying; `fs_throttle` until one is known), disarm on
+  touchdown (an acceleration spike, latched every pass so a 1 ms spike is not missed) or
+  after `fs_land_max_ms`;
+- glide (fixed wing, seed 002's stabilised glide): level, throttle off.
+A link that comes back ends stage 1 at once but not stage 2: the pilot must disarm, or move
+the sticks out of centre, to take over (as Betaflight).
+
+`FaultWatch` looks at the IMU and the loop every slow pass and names what is wrong: a frozen
+IMU (new samples that repeat bit for bit), a saturated one, a crash on the ground (armed,
+tipped over, still, throttle low), a loop-rate collapse (overrun storm). Flight disarms on
+each of them.
 """
 
 from hoverfly.compat import const, ticks_diff
@@ -21,14 +33,28 @@ from hoverfly.core.events import (
 IDLE = const(0)
 STAGE1 = const(1)
 STAGE2 = const(2)
+STAGE_NAMES = ("idle", "stage1", "stage2")
 
 PROC_DROP = const(0)
 PROC_LAND = const(1)
 PROC_GLIDE = const(2)
 PROCEDURES = ("drop", "land", "glide")
 
-# Touchdown: an acceleration spike above this while landing (m/s²; 2.5 g).
+_G_M_S2 = 9.80665
+# Touchdown: an acceleration spike above this while landing (m/s²; 2.5 g), squared to skip the root.
 _TOUCHDOWN_M_S2 = 24.5
+_TOUCHDOWN_SQ = _TOUCHDOWN_M_S2 * _TOUCHDOWN_M_S2
+# No touchdown in the first 200 ms of stage 2: the throttle cut itself jolts the frame.
+_TOUCHDOWN_ARM_US = 200000
+# The hover throttle is learnt with this time constant while flying.
+_LEARN_TAU_S = 2.0
+# Landing speed loop: throttle per m/s of speed error, and the throttle window around the
+# hover throttle it may use (it never asks for more than 1.3 x hover: a landing never climbs).
+_LAND_KV = 0.08
+# Leak of the vertical speed estimate while the pilot flies (s).
+_SPEED_LEAK_S = 3.0
+_LAND_MIN = 0.5
+_LAND_MAX = 1.3
 
 
 class Failsafe:
@@ -37,26 +63,87 @@ class Failsafe:
         self.state = IDLE
         self.stage_since_us = 0
         self.procedure = PROC_LAND
+        self.rx_timeout_us = 100000
         self.delay_us = 400000
         self.land_max_us = 20000000
-        self.throttle_norm = 0.3
+        self.throttle_norm = 0.3  # fs_throttle: the landing throttle until a hover throttle is known
+        self.land_m_s = 1.0
+        # learnt while flying (observe), used while landing
+        self.hover_norm = 0.0  # 0 = not known yet
+        self.speed_down_m_s = 0.0
+        self.land_throttle_norm = 0.3
+        self._peak_sq = 0.0
 
     def configure(self, params):
         self.procedure = PROCEDURES.index(params.get("fs_procedure"))
+        self.rx_timeout_us = params.get("rx_timeout_ms") * 1000
         self.delay_us = params.get("fs_delay_ms") * 1000
         self.land_max_us = params.get("fs_land_max_ms") * 1000
         self.throttle_norm = (params.get("fs_throttle") - 1000) * 0.001
+        self.land_m_s = params.get("fs_land_m_s")
 
     @property
     def active(self):
         return self.state != IDLE
 
-    def update(self, now_us, link_lost, last_frame_us, armed, sticks_moved, accel_norm_m_s2, arming):
+    def note_accel(self, accel_m_s2):
+        """Every pass while landing: keep the largest acceleration since the last slow pass."""
+        a0 = accel_m_s2[0]
+        a1 = accel_m_s2[1]
+        a2 = accel_m_s2[2]
+        sq = a0 * a0 + a1 * a1 + a2 * a2
+        if sq > self._peak_sq:
+            self._peak_sq = sq
+
+    def observe(self, dt_s, q, accel_m_s2, throttle_norm, cos_tilt, flying):
+        """Slow task: learn the hover throttle while the pilot flies; while the failsafe runs,
+        integrate the vertical speed from the accelerometer and set the landing throttle."""
+        # specific force to NED down: third row of the body->NED rotation, plus gravity
+        w = q[0]
+        x = q[1]
+        y = q[2]
+        z = q[3]
+        a_down = (2.0 * (x * z - w * y) * accel_m_s2[0] + 2.0 * (y * z + w * x) * accel_m_s2[1]
+                  + (1.0 - 2.0 * (x * x + y * y)) * accel_m_s2[2] + _G_M_S2)
+        if self.state == IDLE:
+            # While the pilot flies the speed estimate leaks back to zero (a craft flown by hand
+            # does not keep one vertical speed for long), so stage 1 starts from the speed the
+            # craft really had, not from zero, and accelerometer bias cannot pile up.
+            if flying:
+                v = self.speed_down_m_s + a_down * dt_s
+                self.speed_down_m_s = v - v * dt_s / _SPEED_LEAK_S
+            else:
+                self.speed_down_m_s = 0.0
+            if flying and cos_tilt > 0.5:
+                k = dt_s / _LEARN_TAU_S
+                if k > 1.0:
+                    k = 1.0
+                thr = throttle_norm * cos_tilt
+                if self.hover_norm <= 0.0:
+                    self.hover_norm = thr
+                else:
+                    self.hover_norm += k * (thr - self.hover_norm)
+            return
+        # No bias correction: a calibrated accelerometer's ~0.03 m/s² is 0.3 m/s after 10 s, and a
+        # bias learnt in flight would learn the pilot's climbs and descents too.
+        self.speed_down_m_s += a_down * dt_s
+        hover = self.hover_norm
+        if hover <= 0.0:
+            self.land_throttle_norm = self.throttle_norm
+            return
+        c = cos_tilt if cos_tilt > 0.7 else 0.7
+        thr = hover / c + _LAND_KV * (self.speed_down_m_s - self.land_m_s)
+        lo = _LAND_MIN * hover
+        hi = _LAND_MAX * hover
+        self.land_throttle_norm = lo if thr < lo else (hi if thr > hi else thr)
+
+    def update(self, now_us, link_lost, last_frame_us, armed, sticks_moved, arming):
         """Slow task: advance the stages. Stage times count from the last valid frame."""
         if not armed:
             if self.state != IDLE:
                 self.state = IDLE
                 self.events.record(now_us, EV_FAILSAFE_END, 0)
+            self._peak_sq = 0.0
             return
         if self.state == IDLE:
             if link_lost:
@@ -67,9 +154,10 @@ class Failsafe:
             if not link_lost:
                 self.state = IDLE
                 self.events.record(now_us, EV_FAILSAFE_END, 0)
-            elif ticks_diff(now_us, self.stage_since_us) >= self.delay_us:
+            elif ticks_diff(now_us, self.stage_since_us) >= self.rx_timeout_us + self.delay_us:
                 self.state = STAGE2
                 self.stage_since_us = now_us
+                self._peak_sq = 0.0
                 self.events.record(now_us, EV_FAILSAFE_STAGE2, self.procedure)
                 if self.procedure == PROC_DROP:
                     arming.disarm(now_us, DISARM_FAILSAFE)
@@ -80,8 +168,130 @@ class Failsafe:
                 self.events.record(now_us, EV_FAILSAFE_END, 1)
                 return
             if self.procedure == PROC_LAND:
-                landed = accel_norm_m_s2 > _TOUCHDOWN_M_S2 and ticks_diff(now_us, self.stage_since_us) > 200000
+                since = ticks_diff(now_us, self.stage_since_us)
+                landed = self._peak_sq > _TOUCHDOWN_SQ and since > _TOUCHDOWN_ARM_US
+                self._peak_sq = 0.0
                 if landed:
                     self.events.record(now_us, EV_LANDED, 0)
-                if landed or ticks_diff(now_us, self.stage_since_us) >= self.land_max_us:
+                if landed or since >= self.land_max_us:
                     arming.disarm(now_us, DISARM_LANDED if landed else DISARM_FAILSAFE)
+
+
+# FaultWatch verdicts (what Flight disarms for).
+FAULT_NONE = const(0)
+FAULT_IMU_FROZEN = const(1)
+FAULT_IMU_SATURATED = const(2)
+FAULT_CRASH = const(3)
+FAULT_LOAD = const(4)
+FAULT_NAMES = ("none", "imu_frozen", "imu_saturated", "crash", "load")
+
+# A gyro reading this close to full scale counts as saturated (2000 °/s parts, the common range).
+_GYRO_SAT_RAD_S = 34.0
+# Accelerometer: 16 g parts clip at 157 m/s².
+_ACCEL_SAT_M_S2 = 150.0
+# Consecutive slow passes (100 Hz: 100 ms) of identical or saturated samples before a fault.
+_IMU_BAD_CHECKS = 10
+# Crash: tipped beyond 60°, turning slower than 30 °/s, reading 1 g ± 3 m/s² (resting, not falling).
+_CRASH_COS = 0.5
+_CRASH_RATE_SQ = 0.5236 * 0.5236
+_CRASH_G_LO_SQ = (_G_M_S2 - 3.0) * (_G_M_S2 - 3.0)
+_CRASH_G_HI_SQ = (_G_M_S2 + 3.0) * (_G_M_S2 + 3.0)
+# Loop: below this share of loop_hz over a 100 ms window counts as overloaded; a storm is
+# 500 ms of it while armed.
+_LOAD_RATE_PCT = 80
+_STORM_US = 500000
+
+
+class FaultWatch:
+    def __init__(self):
+        self.crash_us = 1000000  # crash_time_ms; 0 = off
+        self.last = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+        self.same_checks = 0
+        self.sat_checks = 0
+        self.imu_fault = FAULT_NONE
+        self.crash_since_us = None
+        self.overloaded = False
+        self.storm_since_us = None
+        self._win_started = False
+        self._win_us = 0
+        self._win_passes = 0
+        self._win_overruns = 0
+        self._period_us = 1000
+
+    def configure(self, params):
+        self.crash_us = params.get("crash_time_ms") * 1000
+        self._period_us = 1000000 // params.get("loop_hz")
+
+    def reset_imu(self):
+        self.same_checks = 0
+        self.sat_checks = 0
+        self.imu_fault = FAULT_NONE
+
+    def check_imu(self, gyro_raw_rad_s, accel_raw_m_s2):
+        """Slow pass with a fresh sample: frozen (bit-identical six values) or saturated."""
+        last = self.last
+        same = True
+        sat = False
+        for i in range(3):
+            g = gyro_raw_rad_s[i]
+            a = accel_raw_m_s2[i]
+            if g != last[i] or a != last[3 + i]:
+                same = False
+            last[i] = g
+            last[3 + i] = a
+            if g > _GYRO_SAT_RAD_S or g < -_GYRO_SAT_RAD_S or a > _ACCEL_SAT_M_S2 or a < -_ACCEL_SAT_M_S2:
+                sat = True
+        self.same_checks = self.same_checks + 1 if same else 0
+        self.sat_checks = self.sat_checks + 1 if sat else 0
+        if self.same_checks >= _IMU_BAD_CHECKS:
+            self.imu_fault = FAULT_IMU_FROZEN
+        elif self.sat_checks >= _IMU_BAD_CHECKS:
+            self.imu_fault = FAULT_IMU_SATURATED
+        else:
+            self.imu_fault = FAULT_NONE
+        return self.imu_fault
+
+    def check_crash(self, now_us, armed, throttle_low, cos_tilt, gyro_rad_s, accel_m_s2):
+        """True once the craft has lain tipped over, still, armed with the throttle low for crash_time_ms."""
+        if not armed or self.crash_us <= 0 or not throttle_low or cos_tilt > _CRASH_COS:
+            self.crash_since_us = None
+            return False
+        g0 = gyro_rad_s[0]
+        g1 = gyro_rad_s[1]
+        g2 = gyro_rad_s[2]
+        a0 = accel_m_s2[0]
+        a1 = accel_m_s2[1]
+        a2 = accel_m_s2[2]
+        a_sq = a0 * a0 + a1 * a1 + a2 * a2
+        if g0 * g0 + g1 * g1 + g2 * g2 > _CRASH_RATE_SQ or a_sq < _CRASH_G_LO_SQ or a_sq > _CRASH_G_HI_SQ:
+            self.crash_since_us = None
+            return False
+        if self.crash_since_us is None:
+            self.crash_since_us = now_us
+            return False
+        return ticks_diff(now_us, self.crash_since_us) >= self.crash_us
+
+    def check_load(self, now_us, passes, overruns, armed):
+        """Loop rate over ~100 ms windows; returns True on an overrun storm while armed."""
+        if not self._win_started:
+            self._win_started = True
+            self._win_us = now_us
+            self._win_passes = passes
+            self._win_overruns = overruns
+            return False
+        span_us = ticks_diff(now_us, self._win_us)
+        if span_us >= 100000:
+            done = passes - self._win_passes
+            expected = span_us // self._period_us
+            over = overruns - self._win_overruns
+            self.overloaded = done * 100 < expected * _LOAD_RATE_PCT or over * 2 > done
+            self._win_us = now_us
+            self._win_passes = passes
+            self._win_overruns = overruns
+        if not (armed and self.overloaded):
+            self.storm_since_us = None
+            return False
+        if self.storm_since_us is None:
+            self.storm_since_us = now_us
+            return False
+        return ticks_diff(now_us, self.storm_since_us) >= _STORM_US
