@@ -1,0 +1,259 @@
+"""`hoverfly maint --port URL ...`: the seed-001 maintenance protocol from the host.
+
+Takes a maintenance port URL (gcs/link.py MaintClient) and gives: `read [FIELD...]` (telemetry
+by header-bitmask field name, all fields by default), `fields` (the names), `motors --props-off
+V1,V2,V3,V4` (a props-off motor test in pulse µs: control_motors 1, the motor commands refreshed
+for `--seconds`, then all motors 1000 and control_motors 0, also on Ctrl-C), `set NAME VALUE`
+(a hoverfly parameter through the seed command carrying it: PID gains, iterm_limit, the gyro and
+accelerometer low-pass), `save` (command 7, flash write) and `command NAME|ID [ARG...]` (any of
+the seed's commands 0-25). `--json` prints machine-readable output. The values' units and the
+server's choices are in docs/configuration.md.
+"""
+
+import json
+import time
+
+from hoverfly.core.params import check_value
+from hoverfly.errors import UserError
+from hoverfly.protocols import maintenance as mp
+
+MOTOR_REFRESH_S = 0.25  # the motor test expires after 1 s without a refresh (core/motortest.py)
+
+
+def _client(args):
+    from hoverfly.gcs.link import MaintClient, open_link
+
+    if not args.port:
+        raise UserError("maint needs --port URL (the maintenance port, e.g. socket://127.0.0.1:5762)")
+    if not args.timeout > 0:
+        raise UserError("--timeout must be more than 0 s")
+    port = open_link(args.port, args.timeout)
+    return port, MaintClient(port, args.timeout)
+
+
+def _text(v):
+    if isinstance(v, float):
+        return "%.6g" % v
+    if isinstance(v, (tuple, list)):
+        return ", ".join(_text(x) for x in v)
+    return str(v)
+
+
+def _print_values(values, as_json):
+    if as_json:
+        print(json.dumps({name: (list(v) if isinstance(v, tuple) else v) for name, v in values}))
+        return
+    for name, v in values:
+        print("%-20s %s" % (name, _text(v)))
+
+
+def _field_names(names):
+    if not names:
+        return [f[0] for f in mp.FIELDS]
+    for name in names:
+        if mp.field_index(name) < 0:
+            raise UserError("unknown maintenance field '%s' (hoverfly maint fields lists them)" % name)
+    return names
+
+
+def run_read(args):
+    fields = _field_names(args.fields)
+    port, client = _client(args)
+    try:
+        reply = client.request(fields)
+    finally:
+        port.close()
+    _print_values(reply.values, args.json)
+    return 0
+
+
+def run_fields(args):
+    if args.json:
+        print(json.dumps([{"name": n, "type": code, "count": count} for n, code, count in mp.FIELDS]))
+        return 0
+    for k, (name, code, count) in enumerate(mp.FIELDS):
+        print("%2d %-20s %s%s" % (k, name, {"f": "float", "H": "u16", "B": "u8", "I": "u32"}[code],
+                                  "[%d]" % count if count > 1 else ""))
+    return 0
+
+
+def parse_motor_values(text):
+    """[pulse_us] x 4 from 'V1,V2,V3,V4' (one value = all four); UserError if not 1000..2000 µs."""
+    parts = [p.strip() for p in text.split(",")]
+    try:
+        values = [int(p) for p in parts]
+    except ValueError:
+        raise UserError("--props-off takes pulse widths in us, e.g. 1100,1100,1100,1100") from None
+    if len(values) == 1:
+        values = values * 4
+    if len(values) != 4:
+        raise UserError("--props-off takes 4 values (motor 1..4) or one for all, got %d" % len(values))
+    for v in values:
+        if not mp.PULSE_MIN_US <= v <= mp.PULSE_MAX_US:
+            raise UserError("motor pulse %d us is outside 1000..2000 us" % v)
+    return values
+
+
+def run_motors(args):
+    from hoverfly.gcs.link import LinkError, Refused
+
+    values = parse_motor_values(args.props_off)
+    if not 0 < args.seconds <= 60:
+        raise UserError("--seconds must be more than 0 and at most 60")
+    fields = ["motor1_signal", "motor2_signal", "motor3_signal", "motor4_signal", "motors_armed"]
+    port, client = _client(args)
+    readings = []
+    try:
+        try:
+            client.command(mp.CMD_CONTROL_MOTORS, (1,))
+        except Refused as exc:
+            raise UserError("%s (is it armed?)" % exc) from None
+        try:
+            end = time.monotonic() + args.seconds
+            while True:
+                reply = None
+                for k in range(4):
+                    try:
+                        reply = client.command(mp.CMD_SET_MOTOR1 + k, (values[k],), fields)
+                    except Refused as exc:
+                        raise UserError(str(exc)) from None
+                readings.append(dict(reply.values))
+                if time.monotonic() >= end:
+                    break
+                time.sleep(min(MOTOR_REFRESH_S, max(0.0, end - time.monotonic())))
+        finally:
+            # SAFETY: whatever happened above (a refusal, Ctrl-C), stop the motors and release control
+            try:
+                client.command(mp.CMD_SET_ALL_MOTORS, (mp.PULSE_MIN_US,))
+            except LinkError:
+                pass  # still release motor control (the controller also stops an unrefreshed test in 1 s)
+            client.command(mp.CMD_CONTROL_MOTORS, (0,))
+    finally:
+        port.close()
+    last = readings[-1]
+    if args.json:
+        print(json.dumps({"commanded_us": values, "seconds": args.seconds, "last": last,
+                          "readings": len(readings)}))
+    else:
+        print("motor test (props off): commanded %s us for %g s"
+              % (", ".join(str(v) for v in values), args.seconds))
+        print("last reading: %s us; motors stopped, control released"
+              % ", ".join(str(last["motor%d_signal" % (k + 1)]) for k in range(4)))
+    return 0
+
+
+def run_set(args):
+    from hoverfly.gcs.link import MAINT_SETTABLE, Refused
+
+    name = args.name.strip().lower()
+    if name not in MAINT_SETTABLE:
+        raise UserError("'%s' cannot be set over the maintenance protocol; it carries: %s"
+                        % (name, ", ".join(MAINT_SETTABLE)))
+    value, err = check_value(name, args.value)
+    if err is not None:
+        raise UserError(err)
+    port, client = _client(args)
+    try:
+        try:
+            got = client.set_param(name, value)
+        except Refused as exc:
+            raise UserError(str(exc)) from None
+    finally:
+        port.close()
+    if args.json:
+        print(json.dumps({name: got}))
+    else:
+        print("%s = %s (not saved: hoverfly maint save writes flash)" % (name, _text(got)))
+    return 0
+
+
+def run_save(args):
+    from hoverfly.gcs.link import Refused
+
+    port, client = _client(args)
+    try:
+        try:
+            client.command(mp.CMD_FLASH_WRITE)
+        except Refused as exc:
+            raise UserError(str(exc)) from None
+    finally:
+        port.close()
+    print("saved (flash write)")
+    return 0
+
+
+def run_command(args):
+    from hoverfly.gcs.link import Refused, command_id
+
+    cmd = command_id(args.name)
+    if cmd < 0:
+        raise UserError("unknown maintenance command '%s': %s or 0..%d"
+                        % (args.name, ", ".join(c[0] for c in mp.COMMANDS), mp.MAX_CMD_ID))
+    fmt = mp.COMMANDS[cmd][1]
+    names = mp.COMMANDS[cmd][2]
+    if len(args.args) != len(fmt):
+        raise UserError("%s takes %d argument%s%s" % (mp.COMMANDS[cmd][0], len(fmt),
+                                                        "" if len(fmt) == 1 else "s",
+                                                        (": " + " ".join(names)) if names else ""))
+    values = []
+    for code, text in zip(fmt, args.args, strict=True):
+        try:
+            values.append(float(text) if code == "f" else int(text, 0))
+        except ValueError:
+            raise UserError("%s: '%s' is not a %s" % (mp.COMMANDS[cmd][0], text,
+                                                     "number" if code == "f" else "whole number")) from None
+    fields = _field_names(args.read) if args.read else []
+    port, client = _client(args)
+    try:
+        try:
+            reply = client.command(cmd, tuple(values), fields)
+        except Refused as exc:
+            raise UserError(str(exc)) from None
+    finally:
+        port.close()
+    if args.json:
+        print(json.dumps({"command": mp.COMMANDS[cmd][0], "ok": True, "values": reply.as_dict()}))
+    else:
+        print("%s: ok" % mp.COMMANDS[cmd][0])
+        _print_values(reply.values, False)
+    return 0
+
+
+def register(sub):
+    import argparse
+
+    p = sub.add_parser("maint",
+                       help="the seed-001 maintenance protocol: read telemetry, motor test, set, save")
+    common = argparse.ArgumentParser(add_help=False)
+    common.add_argument("--port", metavar="URL", default=argparse.SUPPRESS,
+                        help="the maintenance port: socket://127.0.0.1:5762 (hoverfly sim), /dev/ttyUSB0")
+    common.add_argument("--timeout", type=float, default=argparse.SUPPRESS, metavar="S",
+                        help="seconds to wait for a reply (1)")
+    common.add_argument("--json", action="store_true", default=argparse.SUPPRESS, help="print JSON")
+    p.add_argument("--port", metavar="URL", default=None,
+                   help="the maintenance port: socket://127.0.0.1:5762 (hoverfly sim), /dev/ttyUSB0")
+    p.add_argument("--timeout", type=float, default=1.0, metavar="S", help="seconds to wait for a reply (1)")
+    p.add_argument("--json", action="store_true", default=False, help="print JSON")
+    ps = p.add_subparsers(dest="maint_command")
+    r = ps.add_parser("read", parents=[common], help="telemetry values by header field name (all by default)")
+    r.add_argument("fields", nargs="*", metavar="FIELD")
+    r.set_defaults(func=run_read)
+    f = ps.add_parser("fields", parents=[common], help="the header field names, in header order")
+    f.set_defaults(func=run_fields)
+    m = ps.add_parser("motors", parents=[common], help="props-off motor test: --props-off V1,V2,V3,V4 (us)")
+    m.add_argument("--props-off", required=True, metavar="V1,V2,V3,V4",
+                   help="props removed: pulse widths in us (1000..2000) for motors 1-4, or one for all")
+    m.add_argument("--seconds", type=float, default=2.0, metavar="S", help="how long to run them (2)")
+    m.set_defaults(func=run_motors)
+    s = ps.add_parser("set", parents=[common], help="a parameter through the seed commands (PID, filters)")
+    s.add_argument("name", metavar="NAME")
+    s.add_argument("value", metavar="VALUE")
+    s.set_defaults(func=run_set)
+    sv = ps.add_parser("save", parents=[common], help="flash write (command 7)")
+    sv.set_defaults(func=run_save)
+    c = ps.add_parser("command", parents=[common],
+                      help="any seed command 0-25 by name or id, with its arguments")
+    c.add_argument("name", metavar="NAME|ID")
+    c.add_argument("args", nargs="*", metavar="ARG")
+    c.add_argument("--read", nargs="+", metavar="FIELD", default=None, help="header fields to read with it")
+    c.set_defaults(func=run_command)

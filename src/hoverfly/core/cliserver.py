@@ -1,0 +1,323 @@
+"""Betaflight-style CLI on a byte stream: help, get, set, dump, diff, save, defaults, status, exit.
+
+Takes the bytes typed on the CLI/MSP port after `#` entered the CLI (`CliServer.feed(data, n,
+write)`, any chunking; CR or LF ends a line, backspace edits, characters are echoed as
+Betaflight does) and the Flight; gives text lines through `write(bytes)`. Every name, range and
+default comes from core/params.py; Betaflight's long names are accepted where hoverfly's differ
+(ALIASES, with the unit conversion). While the CLI is open flight.config_session bit 1 blocks
+arming; while armed, set, save and defaults are refused. Runs from the links task, never in the
+flight pass.
+"""
+
+from hoverfly import __version__
+from hoverfly.core.arming import reason_names
+from hoverfly.core.mspserver import CONFIG_CLI, reason_words
+from hoverfly.core.params import INDEX, PARAMS, REBOOT, check_value, is_choice, row
+from hoverfly.core.storage import STATUS_NAMES
+
+# Betaflight name -> (hoverfly name, factor: hoverfly value = Betaflight value * factor)
+ALIASES = {
+    "gyro_lpf1_static_hz": ("gyro_lpf1_hz", 1),
+    "gyro_lpf2_static_hz": ("gyro_lpf2_hz", 1),
+    "dterm_lpf1_static_hz": ("dterm_lpf1_hz", 1),
+    "align_board_roll": ("board_roll_deg", 1),
+    "align_board_pitch": ("board_pitch_deg", 1),
+    "align_board_yaw": ("board_yaw_deg", 1),
+    "horizon_level_strength": ("horizon_level", 1),
+    "airmode_start_throttle_percent": ("airmode_thr_pct", 1),
+    "yaw_motors_reversed": ("yaw_motors_rev", 1),
+    "iterm_relax_cutoff": ("iterm_relax_hz", 1),
+    "failsafe_throttle": ("fs_throttle", 1),
+    "dshot_idle_value": ("motor_idle_pct", 0.01),  # Betaflight: percent x 100
+    "failsafe_delay": ("fs_delay_ms", 100),  # Betaflight: tenths of a second
+    "gyro_calib_duration": ("gyro_cal_ms", 10),  # Betaflight: hundredths of a second
+}
+
+HELP = (
+    "help                      this list",
+    "get [part of a name]      show matching parameters (range and default for one)",
+    "set name = value          change a parameter (set alone lists all)",
+    "dump                      every parameter as set lines",
+    "diff [all]                only what differs from the defaults",
+    "save                      write the parameters to storage and leave the CLI",
+    "defaults [nosave]         reset to defaults (and save, unless nosave)",
+    "status                    arming, loop, sensors, link, storage",
+    "exit                      leave the CLI",
+)
+
+_MAX_LINE = 256
+
+
+def format_value(v):
+    if isinstance(v, float):
+        s = "%.6g" % v
+        if "." not in s and "e" not in s and "inf" not in s and "nan" not in s:
+            s += ".0"
+        return s
+    return str(v)
+
+
+def resolve(name):
+    """(hoverfly name, factor) for a hoverfly or Betaflight name, or (None, 1)."""
+    if name in INDEX:
+        return name, 1
+    a = ALIASES.get(name)
+    if a is not None:
+        return a
+    return None, 1
+
+
+class CliServer:
+    def __init__(self, flight, storage=None):
+        self.flight = flight
+        self.storage = storage
+        self.active = False
+        self.lines = 0
+        self._line = bytearray(_MAX_LINE)
+        self._n = 0
+        self._overflow = False
+        self._last_cr = False
+
+    def _session(self, on):
+        s = getattr(self.flight, "config_session", 0)
+        self.flight.config_session = (s | CONFIG_CLI) if on else (s & ~CONFIG_CLI)
+
+    def enter(self, write):
+        self.active = True
+        self._n = 0
+        self._overflow = False
+        self._session(True)
+        write(b"\r\nEntering CLI Mode, type 'exit' to return, or 'help'\r\n\r\n# ")
+
+    def close(self):
+        """Leave the CLI (exit, save, or the client went away)."""
+        if self.active:
+            self.active = False
+            self._session(False)
+        self._n = 0
+
+    def feed(self, data, n, write):
+        if n < 0 or n > len(data):
+            n = len(data)
+        i = 0
+        while i < n and self.active:
+            b = data[i]
+            i += 1
+            if b == 0x0D or b == 0x0A:
+                if b == 0x0A and self._last_cr:
+                    self._last_cr = False
+                    continue
+                self._last_cr = b == 0x0D
+                line = bytes(self._line[:self._n])
+                over = self._overflow
+                self._n = 0
+                self._overflow = False
+                write(b"\r\n")
+                if over:
+                    write(b"###ERROR: line too long###\r\n")
+                else:
+                    self._run(line, write)
+                if self.active:
+                    write(b"\r\n# ")
+                continue
+            self._last_cr = False
+            if b == 0x08 or b == 0x7F:
+                if self._n:
+                    self._n -= 1
+                    write(b"\x08 \x08")
+                continue
+            if b < 0x20 or b > 0x7E:
+                continue
+            if self._n < _MAX_LINE:
+                self._line[self._n] = b
+                self._n += 1
+            else:
+                self._overflow = True
+            write(bytes((b,)))
+
+    # --------------------------------------------------------------- commands
+    def _run(self, raw, write):
+        try:
+            line = raw.decode().strip()
+        except UnicodeError:
+            line = ""
+        self.lines += 1
+        if not line or line[0] == "#":
+            return
+        sp = line.find(" ")
+        cmd = (line if sp < 0 else line[:sp]).lower()
+        arg = "" if sp < 0 else line[sp + 1:].strip()
+        out = []
+        if cmd == "help":
+            out = list(HELP)
+        elif cmd == "get":
+            out = self.cmd_get(arg)
+        elif cmd == "set":
+            out = self.cmd_set(arg)
+        elif cmd == "dump":
+            out = self.cmd_dump(False)
+        elif cmd == "diff":
+            out = self.cmd_dump(True)
+        elif cmd == "save":
+            out = self.cmd_save()
+        elif cmd == "defaults":
+            out = self.cmd_defaults(arg)
+        elif cmd == "status":
+            out = self.cmd_status()
+        elif cmd == "batch":
+            out = []  # pasted diffs carry 'batch start' / 'batch end': nothing to do
+        elif cmd == "exit":
+            out = ["Leaving CLI mode"]
+            self.close()
+        else:
+            out = ["###ERROR: unknown command '%s'; try help###" % cmd]
+        for text in out:
+            write(text.encode() + b"\r\n")
+
+    def _armed_refusal(self, what):
+        if self.flight.arming.armed:
+            return "###ERROR: %s refused while armed: disarm first###" % what
+        return None
+
+    def cmd_get(self, arg):
+        part = arg.lower()
+        name, _ = resolve(part)
+        if name is not None:
+            return self._describe(name)
+        out = []
+        for r in PARAMS:
+            if part in r[0]:
+                out.append("%s = %s" % (r[0], format_value(self.flight.params.get(r[0]))))
+        for bf, (name, _) in ALIASES.items():
+            if part and part in bf:
+                out.append("%s = %s   (hoverfly: %s)" % (bf, format_value(self._bf_value(bf)), name))
+        if not out:
+            out.append("###ERROR: no parameter matches '%s'###" % arg)
+        return out
+
+    def _bf_value(self, bf):
+        name, factor = ALIASES[bf]
+        v = self.flight.params.get(name)
+        if factor == 1:
+            return v
+        v = v / factor
+        return int(v + 0.5) if v >= 0 else int(v - 0.5)
+
+    def _describe(self, name):
+        r = row(name)
+        v = self.flight.params.get(name)
+        out = ["%s = %s" % (name, format_value(v))]
+        if is_choice(r):
+            out.append("Allowed values: %s" % ", ".join(r[4]))
+        else:
+            unit = (" " + r[4]) if r[4] else ""
+            out.append("Allowed range: %s - %s%s" % (format_value(r[2]), format_value(r[3]), unit))
+        out.append("Default value: %s%s" % (format_value(r[1]), "  (applies after a reboot)" if r[5] == REBOOT else ""))
+        out.append(r[6])
+        return out
+
+    def cmd_set(self, arg):
+        if not arg:
+            return ["%s = %s" % (r[0], format_value(self.flight.params.get(r[0]))) for r in PARAMS]
+        refused = self._armed_refusal("set")
+        if refused:
+            return [refused]
+        eq = arg.find("=")
+        if eq < 0:
+            return ["###ERROR: use set name = value###"]
+        given = arg[:eq].strip().lower()
+        text = arg[eq + 1:].strip()
+        name, factor = resolve(given)
+        if name is None:
+            return ["###ERROR: unknown parameter '%s'###" % given]
+        value = text
+        if factor != 1:
+            try:
+                value = float(text) * factor
+            except ValueError:
+                return ["###ERROR: %s must be a number###" % given]
+            if isinstance(row(name)[1], int):
+                value = int(value + 0.5) if value >= 0 else int(value - 0.5)
+        v, err = check_value(name, value)
+        if err is not None:
+            return ["###ERROR: %s###" % err]
+        self.flight.params.set(name, v)
+        note = "  (applies after a reboot)" if row(name)[5] == REBOOT else ""
+        return ["%s set to %s%s" % (name, format_value(v), note)]
+
+    def cmd_dump(self, only_changed):
+        p = self.flight.params
+        board = getattr(self.flight.board, "name", "board")
+        out = ["# %s" % ("diff all" if only_changed else "dump"), "", "# version",
+               "# hoverfly %s / %s" % (__version__, board), "", "batch start", "", "# master"]
+        if only_changed:
+            for name, v in p.diff():
+                out.append("set %s = %s" % (name, format_value(v)))
+        else:
+            for r in PARAMS:
+                out.append("set %s = %s" % (r[0], format_value(p.get(r[0]))))
+        out.append("")
+        out.append("batch end")
+        return out
+
+    def cmd_save(self):
+        refused = self._armed_refusal("save")
+        if refused:
+            return [refused]
+        if self.storage is None:
+            return ["###ERROR: no storage on this board###"]
+        err = self.storage.save(self.flight.params)
+        if err is not None:
+            return ["###ERROR: save failed: %s###" % err]
+        self.close()
+        return ["Saving", "Leaving CLI mode"]
+
+    def cmd_defaults(self, arg):
+        refused = self._armed_refusal("defaults")
+        if refused:
+            return [refused]
+        nosave = arg.strip().lower() == "nosave"
+        if arg and not nosave:
+            return ["###ERROR: defaults takes only 'nosave'###"]
+        self.flight.params.reset()
+        if nosave:
+            return ["Defaults restored (not saved)"]
+        out = ["Defaults restored"]
+        out.extend(self.cmd_save())
+        return out
+
+    def cmd_status(self):
+        f = self.flight
+        out = []
+        flags = f.arming.flags
+        out.append("Armed: %s" % ("yes" if f.arming.armed else "no"))
+        if flags:
+            out.append("Arming disabled: 0x%x %s" % (flags, " ".join(reason_names(flags))))
+            for w in reason_words(flags):
+                out.append("  " + w)
+        else:
+            out.append("Arming disabled: no (ready to arm)")
+        sch = f.scheduler
+        out.append("Loop: %d Hz, cycle %d us (max %d), pass %d us, jitter max %d us, overruns %d"
+                   % (f.loop_hz, sch.cycle_us, sch.cycle_max_us, f.pass_us, sch.jitter_max_us, sch.overruns))
+        cal = f.calibration.calibrated
+        out.append("Sensors: gyro %s, calibration %s; estimator %s"
+                   % ("ok" if f.imu_ok else "FAULT", "done" if cal else "running", f.params.get("estimator")))
+        rx = getattr(f, "receiver", None)
+        if rx is not None:
+            out.append("Link: %s, %s frames, %s errors, %s Hz, LQ %s %%, RSSI %s dBm"
+                       % ("up" if f.rx_ok else "LOST", getattr(rx, "frames", "-"), getattr(rx, "errors", "-"),
+                          getattr(rx, "frame_rate_hz", "-"), getattr(rx, "link_quality_pct", "-"),
+                          getattr(rx, "rssi_dbm", "-")))
+        else:
+            out.append("Link: %s, %d frames" % ("up" if f.rx_ok else "LOST", f.rc.frames))
+        bit = getattr(f, "bit", None)
+        if bit is not None:
+            names = bit.names()
+            out.append("Built-in test: %s" % (", ".join(names) if names else "pass"))
+        st = self.storage
+        if st is not None:
+            out.append("Storage: %s, sequence %d, slot %d%s" % (STATUS_NAMES[st.status], st.seq, st.slot,
+                                                                  ", FAILED" if st.failed else ""))
+        out.append("Config session: %d" % getattr(f, "config_session", 0))
+        return out

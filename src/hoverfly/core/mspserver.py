@@ -1,0 +1,329 @@
+"""MSP v1/v2 server: answers Betaflight-style requests from the live flight state.
+
+Takes request bytes of the CLI/MSP port (`MspServer.feed(data, n, write)`, any chunking) and the
+Flight; gives reply frames through `write(bytes)`, in the version (v1, v2, v2-over-v1) each
+request came in, error frames (`!`) for unknown commands, bad payloads and refused writes.
+Payloads are msp.py's packers in Betaflight's layouts; this module chooses the values and
+converts SI to wire units once. Runs from the configuration-links task (core/links.py, 100 Hz),
+never in the flight pass. `# ` on an idle port is the CLI's business (links.ConfigPort).
+
+Writes: SET_RAW_RC goes to flight.on_msp_rc (the autopilot source, any time); SET_PID,
+SET_MOTOR, ACC_CALIBRATION, EEPROM_WRITE and REBOOT are refused while armed; SET_MOTOR goes to
+flight.motor_test.request with props_off = this session's SET_ARMING_DISABLED(1) (the
+configurator's "I understand the risks" switch), which also holds config_session bit 2.
+"""
+
+from struct import pack
+
+from hoverfly import VERSION
+from hoverfly.core.arming import REASONS
+from hoverfly.core.control import MODE_ANGLE, MODE_HORIZON
+from hoverfly.core.failsafe import IDLE
+from hoverfly.protocols import msp
+
+CONFIG_CLI = 1  # flight.config_session bits (core/arming.py blocks arming while any is set)
+CONFIG_MSP = 2
+CONFIG_MAINT = 4
+
+_DEG = 57.29577951308232
+_ACC_1G = 2048  # MSP_RAW_IMU accelerometer LSB per g (Betaflight's acc_1G on modern parts)
+_GYRO_LSB_PER_DPS = 16.4  # MSP_RAW_IMU gyro LSB per deg/s (+-2000 deg/s part, reference 6.3)
+_G = 9.80665
+MSP_ACC_TRIM = 240  # Betaflight msp_protocol.h; yamspy's basic_info asks for it
+
+# The modes hoverfly reports (MSP_BOXIDS / BOXNAMES order; STATUS mode_flags bit = index here).
+BOXES = ((0, "ARM"), (1, "ANGLE"), (2, "HORIZON"), (28, "AIR MODE"), (27, "FAILSAFE"))
+ARMING_FLAG_COUNT = 31  # hoverfly's reasons run to bit 30 (arming.py)
+
+IDENTITY = {
+    "variant": "HVFL",
+    "board_id": "HVFL",
+    "target_name": "HOVERFLY",
+    "board_name": "hoverfly",
+    "manufacturer_id": "",
+    "build_date": "Jan  1 2026",
+    "build_time": "00:00:00",
+    "git_hash": "0000000",
+    "craft_name": "hoverfly",
+}
+
+
+def _set_session(flight, bit, on):
+    s = getattr(flight, "config_session", 0)
+    flight.config_session = (s | bit) if on else (s & ~bit)
+
+
+def arming_flags(flight):
+    """The arming-disable mask as MSP reports it (arming.py uses Betaflight's bit numbers)."""
+    return flight.arming.flags
+
+
+class MspServer:
+    def __init__(self, flight, storage=None, identity=None):
+        self.flight = flight
+        self.storage = storage
+        self.identity = identity if identity is not None else IDENTITY
+        self.parser = msp.MspParser(max_payload=512, queue_depth=4)
+        self.requests = 0
+        self.errors = 0  # error replies sent
+        self.unknown = 0  # unknown command ids
+        self.last_error = None
+        self.arming_disabled = False  # SET_ARMING_DISABLED(1) from this session
+        self.reboot_requested = False
+        self._rc = [1500] * 18
+
+    # ----------------------------------------------------------------- session
+    def close(self):
+        """The client went away: drop its arming lock and any partial frame."""
+        if self.arming_disabled:
+            self.arming_disabled = False
+            _set_session(self.flight, CONFIG_MSP, False)
+        self.parser.reset()
+
+    def in_frame(self):
+        """True while a frame is half received (a '#' then belongs to it, not to the CLI)."""
+        return self.parser._pos != 0
+
+    def feed(self, data, n, write):
+        self.parser.feed(data, n)
+        p = self.parser
+        while p.pop():
+            if p.direction != msp.DIR_REQUEST:
+                continue  # replies and errors from the other side are not ours to answer
+            self.requests += 1
+            reply = self.handle(p.cmd, p.payload, p.length)
+            if reply is None:
+                self.errors += 1
+                write(msp.encode_reply(p.version, p.cmd, b"", True, p.encapsulated))
+            else:
+                write(msp.encode_reply(p.version, p.cmd, reply, False, p.encapsulated))
+
+    def _refuse(self, reason):
+        self.last_error = reason
+        return None
+
+    # ----------------------------------------------------------------- commands
+    def handle(self, cmd, payload, length):
+        """Reply payload (bytes) for one request, or None for an error reply."""
+        f = self.flight
+        s = f.signals
+        ident = self.identity
+        if cmd == msp.MSP_API_VERSION:
+            return msp.pack_api_version()
+        if cmd == msp.MSP_FC_VARIANT:
+            return msp.pack_fc_variant(ident["variant"])
+        if cmd == msp.MSP_FC_VERSION:
+            return msp.pack_fc_version(VERSION[0], VERSION[1], VERSION[2])
+        if cmd == msp.MSP_BOARD_INFO:
+            return msp.pack_board_info(ident["board_id"], target_name=ident["target_name"],
+                                       board_name=ident["board_name"], manufacturer_id=ident["manufacturer_id"],
+                                       gyro_rate_hz=f.loop_hz)
+        if cmd == msp.MSP_BUILD_INFO:
+            return msp.pack_build_info(ident["build_date"], ident["build_time"], ident["git_hash"])
+        if cmd == msp.MSP_NAME:
+            return msp.pack_name(ident["craft_name"])
+        if cmd == msp.MSP_STATUS or cmd == msp.MSP_STATUS_EX:
+            return self._status(cmd == msp.MSP_STATUS_EX)
+        if cmd == msp.MSP_RAW_IMU:
+            a = s.accel_raw_m_s2
+            g = s.gyro_rad_s
+            k = _ACC_1G / _G
+            kg = _GYRO_LSB_PER_DPS * _DEG
+            # FRD body axes; accelerometer z sign as Betaflight's (level at rest reads +1 g).
+            return msp.pack_raw_imu((a[0] * k, a[1] * k, -a[2] * k), (g[0] * kg, g[1] * kg, g[2] * kg))
+        if cmd == msp.MSP_MOTOR:
+            out = s.motor_out
+            return msp.pack_motor([1000 + int(out[i] * 1000.0 + 0.5) for i in range(f.motor_count)])
+        if cmd == msp.MSP_RC:
+            return msp.pack_rc(self._rc_order())
+        if cmd == msp.MSP_ATTITUDE:
+            att = s.attitude
+            return msp.pack_attitude(att.roll_rad * _DEG * 10.0, att.pitch_rad * _DEG * 10.0,
+                                     (att.yaw_rad * _DEG) % 360.0)
+        if cmd == msp.MSP_ALTITUDE:
+            return msp.pack_altitude(getattr(s, "altitude_m", 0.0) * 100.0, getattr(s, "vario_m_s", 0.0) * 100.0)
+        if cmd == msp.MSP_ANALOG:
+            rssi = 0
+            rx = getattr(f, "receiver", None)
+            if rx is not None:
+                rssi = int(getattr(rx, "link_quality_pct", 0) * 1023 // 100)
+            return msp.pack_analog(s.battery_v * 100.0, s.mah_drawn, rssi, s.current_a * 100.0)
+        if cmd == msp.MSP_RC_TUNING:
+            return self._rc_tuning()
+        if cmd == msp.MSP_PID:
+            p = f.params
+            return msp.pack_pid([(p.get("p_" + a), p.get("i_" + a), p.get("d_" + a)) for a in ("roll", "pitch", "yaw")])
+        if cmd == msp.MSP_BOXNAMES:
+            return msp.pack_boxnames([b[1] for b in BOXES])
+        if cmd == msp.MSP_BOXIDS:
+            return msp.pack_boxids([b[0] for b in BOXES])
+        if cmd == msp.MSP_MODE_RANGES:
+            return self._mode_ranges()
+        if cmd == msp.MSP_UID:
+            uid = getattr(f.board, "uid", (0x48564600, 0x4C590000, 1))
+            return msp.pack_uid(uid[0], uid[1], uid[2])
+        if cmd == MSP_ACC_TRIM:
+            # i16 pitch, i16 roll; hoverfly sends its trims in 0.1 deg (Betaflight: accelerometer counts)
+            p = f.params
+            return pack("<hh", int(p.get("acc_trim_pitch") * 10.0), int(p.get("acc_trim_roll") * 10.0))
+        if cmd == msp.MSP_SET_RAW_RC:
+            return self._set_raw_rc(payload, length)
+        if cmd == msp.MSP_SET_ARMING_DISABLED:
+            disable, _ = msp.unpack_set_arming_disabled(payload, length)
+            self.arming_disabled = disable != 0
+            _set_session(f, CONFIG_MSP, self.arming_disabled)
+            if not self.arming_disabled:
+                mt = getattr(f, "motor_test", None)
+                if mt is not None and getattr(mt, "active", False):
+                    mt.stop(0)  # Betaflight: turning the switch off stops the motors
+            return b""
+        # -- writes refused while armed
+        if cmd in (msp.MSP_SET_PID, msp.MSP_SET_MOTOR, msp.MSP_ACC_CALIBRATION, msp.MSP_EEPROM_WRITE,
+                   msp.MSP_REBOOT):
+            if f.arming.armed:
+                return self._refuse("refused while armed")
+            if cmd == msp.MSP_SET_PID:
+                return self._set_pid(payload, length)
+            if cmd == msp.MSP_SET_MOTOR:
+                return self._set_motor(payload, length)
+            if cmd == msp.MSP_ACC_CALIBRATION:
+                att = s.attitude
+                err = f.params.update((("acc_trim_roll", att.roll_rad * _DEG),
+                                       ("acc_trim_pitch", att.pitch_rad * _DEG)))
+                return b"" if err is None else self._refuse(err)
+            if cmd == msp.MSP_EEPROM_WRITE:
+                if self.storage is None:
+                    return self._refuse("no storage on this board")
+                err = self.storage.save(f.params)
+                return b"" if err is None else self._refuse(err)
+            mode = msp.unpack_reboot(payload, length)
+            if mode != 0:
+                return self._refuse("only a firmware reboot (mode 0) is supported")
+            self.reboot_requested = True
+            return msp.pack_reboot(0)
+        self.unknown += 1
+        return self._refuse("unknown MSP command %d" % cmd)
+
+    def _rc_order(self):
+        # Betaflight's MSP_RC order: roll, pitch, yaw, throttle, then AUX1.. (receiver channels 5..)
+        ch = self.flight.signals.rc_channels_us
+        rc = self.flight.rc
+        out = self._rc
+        out[0] = ch[rc.roll_ch]
+        out[1] = ch[rc.pitch_ch]
+        out[2] = ch[rc.yaw_ch]
+        out[3] = ch[rc.throttle_ch]
+        for i in range(4, len(ch)):
+            out[i] = ch[i]
+        return out
+
+    def _status(self, ex):
+        f = self.flight
+        modes = 0
+        if f.arming.armed:
+            modes |= 1
+        m = f.signals.setpoint.mode
+        if m == MODE_ANGLE:
+            modes |= 2
+        elif m == MODE_HORIZON:
+            modes |= 4
+        if f.params.get("airmode"):
+            modes |= 8
+        if f.failsafe.state != IDLE:
+            modes |= 16
+        sch = f.scheduler
+        period = sch.period_us if sch.period_us > 0 else 1000
+        load = f.pass_us * 100 // period if f.pass_us > 0 else 0
+        flags = arming_flags(f)
+        pack = msp.pack_status_ex if ex else msp.pack_status
+        return pack(sch.cycle_us if sch.cycle_us > 0 else period, 0, 1 | 32, modes, 0, load,
+                    flags, ARMING_FLAG_COUNT)
+
+    def _rc_tuning(self):
+        p = self.flight.params
+        v = {}
+        # hoverfly keeps Betaflight "actual" rates: rc_rate in 10 deg/s, srate in 10 deg/s, expo %.
+        for axis in ("roll", "pitch", "yaw"):
+            v[axis + "_rc_rate"] = p.get(axis + "_rc_rate")
+            v[axis + "_rate"] = p.get(axis + "_srate")
+            v[axis + "_expo"] = p.get(axis + "_expo")
+        v["roll_rc_expo"] = v.pop("roll_expo")
+        v["throttle_mid"] = 50
+        v["throttle_limit_pct"] = 100
+        v["rates_type"] = 4  # Betaflight RATES_TYPE_ACTUAL
+        return msp.pack_rc_tuning(v)
+
+    def _mode_ranges(self):
+        p = self.flight.params
+        ranges = []
+        for box_id, key in ((0, "arm"), (1, "angle"), (2, "horizon")):
+            ch = p.get(key + "_ch")
+            if ch >= 5:
+                ranges.append((box_id, ch - 5, msp.step_of_us(p.get(key + "_min_us")),
+                               msp.step_of_us(p.get(key + "_max_us"))))
+        return msp.pack_mode_ranges(ranges)
+
+    def _set_raw_rc(self, payload, length):
+        f = self.flight
+        fn = getattr(f, "on_msp_rc", None)
+        if fn is None:
+            return self._refuse("this firmware takes no MSP RC")
+        if length < 8 or length & 1:
+            return self._refuse("SET_RAW_RC needs 4..18 channels of 2 bytes")
+        channels = msp.unpack_set_raw_rc(payload, length)
+        for us in channels:
+            if us < 750 or us > 2250:
+                return self._refuse("SET_RAW_RC channel out of range 750..2250 us")
+        reason = fn(f.board.now_us(), channels, len(channels))
+        if reason:
+            return self._refuse(str(reason))
+        return b""
+
+    def _set_pid(self, payload, length):
+        if length < 9:
+            return self._refuse("SET_PID needs roll, pitch and yaw (9 bytes)")
+        rows = msp.unpack_pid(payload[:length])
+        pairs = []
+        for k, axis in ((0, "roll"), (1, "pitch"), (2, "yaw")):
+            pairs.append(("p_" + axis, rows[k][0]))
+            pairs.append(("i_" + axis, rows[k][1]))
+            pairs.append(("d_" + axis, rows[k][2]))
+        err = self.flight.params.update(pairs)
+        return b"" if err is None else self._refuse(err)
+
+    def _set_motor(self, payload, length):
+        f = self.flight
+        mt = getattr(f, "motor_test", None)
+        if mt is None:
+            return self._refuse("this firmware has no motor test")
+        values = msp.unpack_set_motor(payload, length)
+        n = f.motor_count
+        if len(values) < n:
+            return self._refuse("SET_MOTOR needs a value per motor")
+        for k in range(n):
+            if values[k] < 1000 or values[k] > 2000:
+                return self._refuse("SET_MOTOR values must be 1000..2000")
+        now = f.board.now_us()
+        same = True
+        for k in range(1, n):
+            if values[k] != values[0]:
+                same = False
+        if same:
+            reason = mt.request(now, -1, (values[0] - 1000) * 0.001, self.arming_disabled)
+        else:
+            reason = None
+            for k in range(n):
+                reason = reason or mt.request(now, k, (values[k] - 1000) * 0.001, self.arming_disabled)
+        if reason:
+            return self._refuse(str(reason))
+        return b""
+
+
+def reason_words(flags):
+    """'NAME: sentence' for each set arming-disable bit (CLI status, reports)."""
+    out = []
+    for bit in range(32):
+        if flags & (1 << bit):
+            r = REASONS.get(bit)
+            out.append("%s: %s" % r if r is not None else "BIT%d" % bit)
+    return out

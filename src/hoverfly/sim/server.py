@@ -1,0 +1,215 @@
+"""`hoverfly sim`: the simulator in real time with its serial ports served over TCP on 127.0.0.1.
+
+Takes an airframe, two TCP port numbers and an optional storage file; gives a running simulated
+flight controller whose CLI + MSP port (default 5761, as Betaflight's SITL) and seed-001
+maintenance port (5762) accept one TCP client each. The sockets are non-blocking and polled by
+the flight core's links task (core/links.py, 100 Hz) through the sim board's serial seam, so a
+client that connects, floods, stops reading or disconnects never stalls the flight loop: a newer
+connection replaces an older one, a disconnect ends that port's session, and replies a client
+does not read are dropped past OUT_LIMIT bytes. The parameter image is the `--storage` file,
+written in place (core/storage.py's two slots make a cut write harmless).
+"""
+
+import os
+import socket
+
+from hoverfly.core.board import SERIAL_CONFIG, SERIAL_MAINT
+from hoverfly.core.links import attach
+from hoverfly.core.storage import STATUS_NAMES, Storage
+from hoverfly.errors import UserError
+
+HOST = "127.0.0.1"
+DEFAULT_MSP_PORT = 5761
+DEFAULT_MAINT_PORT = 5762
+OUT_LIMIT = 256 * 1024  # reply bytes held for a slow client before new ones are dropped
+_FOREVER_S = 10 * 365 * 24 * 3600.0
+
+
+def load_storage_file(path):
+    if path is None or not os.path.exists(path):
+        return None
+    with open(path, "rb") as fh:
+        return fh.read()
+
+
+def save_storage_file(path, image):
+    """Write the image in place: bytes that did not change are rewritten with their old value, so a
+    write cut anywhere leaves the untouched slot whole (as flash would)."""
+    if path is None:
+        return False
+    mode = "r+b" if os.path.exists(path) else "wb"
+    with open(path, mode) as fh:
+        fh.seek(0)
+        fh.write(image)
+        fh.truncate(len(image))
+        fh.flush()
+        os.fsync(fh.fileno())
+    return True
+
+
+class TcpPorts:
+    """Listening sockets on 127.0.0.1, one client each, all non-blocking."""
+
+    def __init__(self, ports, host=HOST):
+        self.listeners = {}
+        self.clients = {}
+        self.out = {}
+        self.gone = {}
+        self.accepted = 0
+        self.dropped_bytes = 0
+        for pid, number in ports.items():
+            s = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+            s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            try:
+                s.bind((host, number))
+            except OSError as exc:
+                s.close()
+                self.close()
+                raise UserError("cannot serve on %s:%d: %s" % (host, number, exc.strerror or exc)) from None
+            s.listen(2)
+            s.setblocking(False)
+            self.listeners[pid] = s
+            self.clients[pid] = None
+            self.out[pid] = bytearray()
+            self.gone[pid] = False
+
+    def address(self, pid):
+        return self.listeners[pid].getsockname()
+
+    def _accept(self, pid):
+        try:
+            conn, _ = self.listeners[pid].accept()
+        except (BlockingIOError, InterruptedError):
+            return
+        except OSError:
+            return
+        conn.setblocking(False)
+        conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        if self.clients[pid] is not None:
+            self._drop(pid)  # the newer client wins; the old session ends
+        self.clients[pid] = conn
+        self.accepted += 1
+
+    def _drop(self, pid):
+        c = self.clients[pid]
+        if c is not None:
+            try:
+                c.close()
+            except OSError:
+                pass
+        self.clients[pid] = None
+        self.out[pid] = bytearray()
+        self.gone[pid] = True
+
+    def read(self, pid, buf):
+        self._accept(pid)
+        self._flush(pid)
+        c = self.clients[pid]
+        if c is None:
+            if self.gone[pid]:
+                self.gone[pid] = False
+                return -1
+            return 0
+        try:
+            n = c.recv_into(buf)
+        except (BlockingIOError, InterruptedError):
+            return 0
+        except OSError:
+            n = 0
+        if n == 0:
+            self._drop(pid)
+            self.gone[pid] = False
+            return -1
+        return n
+
+    def write(self, pid, data, n=-1):
+        if n < 0:
+            n = len(data)
+        if self.clients.get(pid) is None:
+            return 0
+        out = self.out[pid]
+        room = OUT_LIMIT - len(out)
+        take = n if n <= room else max(0, room)
+        out += bytes(data[:take])
+        self.dropped_bytes += n - take
+        self._flush(pid)
+        return take
+
+    def _flush(self, pid):
+        c = self.clients[pid]
+        out = self.out[pid]
+        if c is None or not out:
+            return
+        try:
+            sent = c.send(out)
+        except (BlockingIOError, InterruptedError):
+            return
+        except OSError:
+            self._drop(pid)
+            return
+        del out[:sent]
+
+    def close(self):
+        for pid in list(self.listeners):
+            if self.clients.get(pid) is not None:
+                self._drop(pid)
+            self.listeners[pid].close()
+        self.listeners = {}
+
+
+class SimServer:
+    """A real-time SimRun with storage and the TCP ports wired to its board."""
+
+    def __init__(self, airframe="5inch", msp_port=DEFAULT_MSP_PORT, maint_port=DEFAULT_MAINT_PORT,
+                 storage_path=None, duration_s=None, seed=1, mode="angle"):
+        from hoverfly.sim.runner import SimRun
+
+        if duration_s is not None and not (0 < duration_s <= _FOREVER_S):
+            raise UserError("--duration must be more than 0 s")
+        scenario = {"name": "sim", "duration_s": 3600.0, "mode": mode, "events": [], "params": {}}
+        self.run = SimRun(airframe, scenario, seed, (), 3600.0, realtime=True)
+        self.run.duration_s = duration_s if duration_s is not None else _FOREVER_S
+        board = self.run.board
+        board.storage_path = storage_path
+        self.storage = Storage(board)
+        self.storage_status = self.storage.load(self.run.params)
+        self.flight = self.run.flight
+        self.flight.storage = self.storage
+        self.ports = TcpPorts({SERIAL_CONFIG: msp_port, SERIAL_MAINT: maint_port})
+        board.serial = self.ports
+        self.links = attach(self.flight, self.storage)
+        self.stop_requested = False
+        self._chained = self.run.on_step
+        self.run.on_step = self._on_step
+        self.result = None
+
+    def describe(self):
+        msp_addr = self.ports.address(SERIAL_CONFIG)
+        maint_addr = self.ports.address(SERIAL_MAINT)
+        storage = self.run.board.storage_path
+        return ("hoverfly sim: %s, CLI+MSP on %s:%d, maintenance on %s:%d, storage %s"
+                % (self.run.airframe["name"], msp_addr[0], msp_addr[1], maint_addr[0], maint_addr[1],
+                   "%s (%s)" % (storage, STATUS_NAMES[self.storage_status]) if storage else "none (not saved)"))
+
+    def _on_step(self, run):
+        if self._chained is not None:
+            self._chained(run)
+        if self.stop_requested:
+            raise _Stop()
+
+    def serve(self):
+        """Run until the duration ends, stop() is called or Ctrl-C; returns the flight summary."""
+        try:
+            self.result = self.run.run()
+        except _Stop:
+            pass
+        finally:
+            self.ports.close()
+        return self.result
+
+    def stop(self):
+        self.stop_requested = True
+
+
+class _Stop(Exception):
+    pass
