@@ -65,7 +65,35 @@ def open_ulog(path, topics=None):
     finally:
         handle.close()
     warnings = [line.strip() for line in printed.getvalue().splitlines() if line.strip()]
+    cut = framing_end(name)
+    if cut is not None:
+        warnings.append("file ends inside a message at byte %d of %d (cut off?): read up to the last whole "
+                        "message" % cut)
     return ulog, warnings
+
+
+def framing_end(path):
+    """(offset of the unfinished message, file size) when the file ends inside a message, else None.
+
+    Walks the message headers only (u16 size, u8 type); pyulog reads such a file silently.
+    """
+    try:
+        with open(path, "rb") as f:
+            data = f.read()
+    except OSError:
+        return None
+    n = len(data)
+    off = 16
+    if n < off:
+        return None
+    while off + 3 <= n:
+        size = data[off] | (data[off + 1] << 8)
+        if off + 3 + size > n:
+            return off, n
+        off += 3 + size
+    if off != n:
+        return off, n
+    return None
 
 
 def _one_line(exc):

@@ -1,0 +1,176 @@
+"""Cost of flight logging at 1 kHz: the flight pass with and without the logger, and the log task alone.
+
+Run: `.venv/bin/python bench/log_loop.py` and
+`MICROPYPATH=src:.frozen .venv/bin/micropython -X heapsize=192k bench/log_loop.py`.
+Prints one JSON object: us_per_pass without and with logging (blackbox_rate_hz = loop_hz =
+1000: every pass writes the six fast topics, input_rc on each receiver frame, the slow topics
+ten times a second; the ring drained to a null writer every 50 passes, drain included),
+log_us_per_pass (the difference), log_pct (of the pass without logging, goal <= 10 on CPython),
+task_us (the log task timed alone) and bytes_per_s written. Best of several runs, armed, angle
+mode, a CRSF frame every 4th pass.
+"""
+
+import sys
+
+if sys.implementation.name == "micropython":
+    import gc
+
+    for _name in ("params", "events", "filters", "control", "estimator", "mixer", "arming", "failsafe",
+                  "rc", "scheduler", "signals", "output", "receiver", "logger", "flight"):
+        gc.collect()
+        try:
+            __import__("hoverfly.core." + _name)
+        except ImportError:
+            pass
+    gc.collect()
+
+from hoverfly.compat import IS_MICROPYTHON, collect_garbage, ticks_diff, ticks_us
+from hoverfly.core.board import Board
+from hoverfly.core.flight import Flight
+from hoverfly.protocols.ulog import RingSink
+
+try:
+    from hoverfly.protocols.crsf import encode_rc_frame
+except ImportError:  # pragma: no cover
+    encode_rc_frame = None
+
+RUNS = 3 if IS_MICROPYTHON else 5
+PASSES = 500 if IS_MICROPYTHON else 4000
+BATCH = 20
+
+
+class _Board(Board):
+    def __init__(self):
+        self.k = 0
+        self.polls = 0
+        self.frames = []
+        for arm_us, roll_us in ((1000, 1500), (2000, 1500), (2000, 1507)):
+            ch = [roll_us, 1500, 1400, 1500, arm_us, 2000] + [1500] * 10
+            self.frames.append(bytes(encode_rc_frame(ch)) if encode_rc_frame else b"")
+
+    def now_us(self):
+        return 0
+
+    def read_imu(self, gyro, accel):
+        k = self.k % 3
+        gyro[0] = 0.01 * (k - 1)
+        gyro[1] = 0.02
+        gyro[2] = -0.005 * k
+        accel[0] = 0.1
+        accel[1] = -0.1
+        accel[2] = -9.8
+        return True
+
+    def read_rx(self, buf):
+        self.polls += 1
+        if self.polls & 1:
+            return 0
+        f = self.frames[0] if self.polls < 800 else self.frames[1 + ((self.polls >> 1) & 1)]
+        n = len(f)
+        buf[0:n] = f
+        return n
+
+    def write_motors(self, out, n):
+        pass
+
+
+def _null(mv):
+    return None
+
+
+class _Counter:
+    def __init__(self):
+        self.n = 0
+
+    def take(self, mv):
+        self.n += len(mv)
+        return None
+
+
+def _flight(log_on):
+    board = _Board()
+    f = Flight(board)
+    f.params.set("gyro_cal_ms", 100)
+    f.params.set("boot_grace_ms", 0)
+    f.params.set("min_check", 1500)
+    f.params.set("blackbox_rate_hz", 1000)
+    ring = None
+    if log_on:
+        ring = RingSink(24 * 1024)
+        f.logger.open(ring)
+    f.start(0)
+    t = 0
+    for _ in range(2000):  # calibrate, arm
+        t += 1000
+        board.k += 1
+        f.step(t)
+        if ring is not None and ring.used > 8192:
+            ring.drain(_null)
+    assert f.arming.armed, "bench flight did not arm"
+    return f, board, ring, t
+
+
+def _batch(f, board, t):
+    t0 = ticks_us()
+    for _ in range(BATCH):
+        t += 1000
+        board.k += 1
+        f.step(t)
+    return ticks_diff(ticks_us(), t0), t
+
+
+def run_pair():
+    """The same flight with and without logging, batch for batch in turn; the fastest batch of each
+    (a busy host slows some batches, never speeds one up)."""
+    off = _flight(False)
+    on = _flight(True)
+    f0, b0, _, t0 = off
+    f1, b1, ring, t1 = on
+    counter = _Counter()
+    best_off = None
+    best_on = None
+    for i in range(RUNS * PASSES // BATCH):
+        if i % 8 == 0:
+            collect_garbage()
+        us, t0 = _batch(f0, b0, t0)
+        best_off = us if best_off is None or us < best_off else best_off
+        t_start = ticks_us()
+        us, t1 = _batch(f1, b1, t1)
+        ring.drain(counter.take)
+        us = ticks_diff(ticks_us(), t_start)
+        best_on = us if best_on is None or us < best_on else best_on
+    passes = RUNS * PASSES
+    return best_off / BATCH, best_on / BATCH, counter.n / (passes / 1000.0)
+
+
+def task_alone():
+    f, board, ring, t = _flight(True)
+    task = f.logger.task
+    best = None
+    for _ in range(RUNS):
+        collect_garbage()
+        total = 0
+        for _ in range(PASSES // BATCH):
+            t0 = ticks_us()
+            for _ in range(BATCH):
+                t += 1000
+                task(t)
+            total += ticks_diff(ticks_us(), t0)
+            ring.drain(_null)
+        us = total / PASSES
+        best = us if best is None or us < best else best
+    return best
+
+
+def main():
+    off, on, rate = run_pair()
+    collect_garbage()
+    alone = task_alone()
+    runtime = "micropython" if IS_MICROPYTHON else "cpython"
+    print('{"runtime": "%s", "us_per_pass_off": %.2f, "us_per_pass_on": %.2f, "log_us_per_pass": %.2f, '
+          '"log_pct": %.1f, "task_us": %.2f, "bytes_per_s": %d, "passes": %d}'
+          % (runtime, off, on, on - off, 100.0 * (on - off) / off, alone, rate, RUNS * PASSES))
+
+
+main()
+sys.stdout.flush()

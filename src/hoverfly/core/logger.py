@@ -1,0 +1,638 @@
+"""The flight logger: the core's signals in, a PX4 ULog stream out to whatever sink the board gives.
+
+Takes the Flight it logs (signals, PID terms, events, parameters, scheduler and link
+statistics) and a sink (`open(sink)`: a RingSink the board drains in its slack, or a file).
+Gives a ULog that pyulog, PlotJuggler and Flight Review read, with PX4 topic names where
+one applies. It is one row of the task table ("log", at `blackbox_rate_hz`), run after the
+pass, so it sees exactly what the pass consumed and produced.
+
+Topics at the logging rate, one frame per run: vehicle_attitude, vehicle_angular_velocity
+(the filtered gyro the PID used), vehicle_rates_setpoint, actuator_outputs (motor_out:
+0 = stop, idle..1), sensor_combined (the aligned IMU sample the pass read; gyro_integral_dt
+0 = no new sample that pass) and hoverfly_pid (P, I, D, F and sum per axis). input_rc is
+written for every new receiver frame; battery_status, vehicle_status, hoverfly_loop and
+hoverfly_link about ten times a second. Events (arming, failsafe, modes) become log strings,
+parameter changes become `P` messages after that run's samples, and a sync marker goes out
+about once a second.
+
+Cost: the fast topics are one struct.pack_into into one preallocated frame (message headers
+and constant zeros included) and one sink.write; the rest runs only when something changed.
+With no sink the task runs once a second and returns.
+"""
+
+import struct
+from array import array
+
+from hoverfly.compat import ticks_diff
+from hoverfly.core.arming import REASONS
+from hoverfly.core.control import MODE_NAMES
+from hoverfly.core.events import (
+    DISARM_REASONS,
+    EV_ARMING_BLOCKED,
+    EV_CRASH,
+    EV_DISARMED,
+    EV_FAILSAFE_END,
+    EV_FAILSAFE_STAGE1,
+    EV_FAILSAFE_STAGE2,
+    EV_IMU_FAULT,
+    EV_MODE,
+    EV_OUTPUT_FAILSAFE,
+    EV_RX_LOST,
+    EVENT_NAMES,
+)
+from hoverfly.core.mixer import MAX_MOTORS
+from hoverfly.core.params import PARAMS
+from hoverfly.protocols.ulog import UlogWriter
+
+_SLOW_HZ = 10  # battery, status, loop and link topics
+_IDLE_HZ = 1  # the task's rate while no sink is open
+_MAX_OUTPUTS = 16  # PX4 actuator_outputs.output[16]
+_RC_CHANNELS = 18  # PX4 input_rc.values[18]
+_U32_MAX = 0xFFFFFFFF
+# The frames of several runs are packed straight into one staging buffer and handed to the sink
+# in one write when the next run's frame might not fit (about five runs at 1 kHz): the sink's
+# per-write cost is paid once per batch. Anything else the log holds (slow topics, strings,
+# parameter changes, syncs) goes out after the staged frames, so the file stays in time order.
+_STAGE_BYTES = 2048
+
+# PX4 message definitions (PX4-Autopilot msg/*.msg), trimmed to what hoverfly has; the
+# padding fields are left out (readers go by name). Every format starts with its timestamp.
+VEHICLE_ATTITUDE = (
+    ("uint64_t", "timestamp"),
+    ("float[4]", "q"),
+    ("float[4]", "delta_q_reset"),
+    ("uint8_t", "quat_reset_counter"),
+)
+VEHICLE_ANGULAR_VELOCITY = (
+    ("uint64_t", "timestamp"),
+    ("uint64_t", "timestamp_sample"),
+    ("float[3]", "xyz"),
+    ("float[3]", "xyz_derivative"),
+)
+VEHICLE_RATES_SETPOINT = (
+    ("uint64_t", "timestamp"),
+    ("float", "roll"),
+    ("float", "pitch"),
+    ("float", "yaw"),
+    ("float[3]", "thrust_body"),
+    ("bool", "reset_integral"),
+)
+ACTUATOR_OUTPUTS = (
+    ("uint64_t", "timestamp"),
+    ("uint32_t", "noutputs"),
+    ("float[16]", "output"),
+)
+SENSOR_COMBINED = (
+    ("uint64_t", "timestamp"),
+    ("float[3]", "gyro_rad"),
+    ("uint32_t", "gyro_integral_dt"),
+    ("int32_t", "accelerometer_timestamp_relative"),
+    ("float[3]", "accelerometer_m_s2"),
+    ("uint32_t", "accelerometer_integral_dt"),
+    ("uint8_t", "accelerometer_clipping"),
+    ("uint8_t", "gyro_clipping"),
+    ("uint8_t", "accel_calibration_count"),
+    ("uint8_t", "gyro_calibration_count"),
+)
+HOVERFLY_PID = (
+    ("uint64_t", "timestamp"),
+    ("float[3]", "p"),
+    ("float[3]", "i"),
+    ("float[3]", "d"),
+    ("float[3]", "f"),
+    ("float[3]", "sum"),
+    ("float", "tpa"),
+    ("bool", "i_active"),
+    ("bool", "airmode_active"),
+    ("bool", "saturated"),
+)
+INPUT_RC = (
+    ("uint64_t", "timestamp"),
+    ("uint64_t", "timestamp_last_signal"),
+    ("int32_t", "rssi"),
+    ("uint16_t", "rc_lost_frame_count"),
+    ("uint16_t", "rc_total_frame_count"),
+    ("uint16_t[18]", "values"),
+    ("uint8_t", "channel_count"),
+    ("bool", "rc_failsafe"),
+    ("bool", "rc_lost"),
+    ("uint8_t", "input_source"),
+    ("int8_t", "link_quality"),
+    ("float", "rssi_dbm"),
+)
+BATTERY_STATUS = (
+    ("uint64_t", "timestamp"),
+    ("float", "voltage_v"),
+    ("float", "current_a"),
+    ("float", "discharged_mah"),
+    ("float", "remaining"),
+    ("bool", "connected"),
+)
+VEHICLE_STATUS = (
+    ("uint64_t", "timestamp"),
+    ("uint64_t", "armed_time"),
+    ("uint8_t", "arming_state"),
+    ("uint8_t", "nav_state"),
+    ("bool", "failsafe"),
+    ("bool", "rc_signal_lost"),
+    ("uint8_t", "hoverfly_mode"),
+    ("uint8_t", "failsafe_state"),
+    ("bool", "imu_ok"),
+    ("bool", "gyro_calibrated"),
+)
+HOVERFLY_LOOP = (
+    ("uint64_t", "timestamp"),
+    ("uint32_t", "passes"),
+    ("uint32_t", "cycle_us"),
+    ("uint32_t", "cycle_max_us"),
+    ("uint32_t", "jitter_max_us"),
+    ("uint32_t", "overruns"),
+    ("uint32_t", "log_frames"),
+    ("uint32_t", "log_dropped"),
+)
+HOVERFLY_LINK = (
+    ("uint64_t", "timestamp"),
+    ("uint32_t", "frames"),
+    ("uint32_t", "errors"),
+    ("float", "frame_rate_hz"),
+    ("uint8_t", "link_quality_pct"),
+    ("float", "rssi_dbm"),
+    ("bool", "rx_failsafe"),
+    ("bool", "rx_ok"),
+)
+
+# Order of the formats in the file, and of the fast topics in the frame.
+FORMATS = (
+    ("vehicle_attitude", VEHICLE_ATTITUDE),
+    ("vehicle_angular_velocity", VEHICLE_ANGULAR_VELOCITY),
+    ("vehicle_rates_setpoint", VEHICLE_RATES_SETPOINT),
+    ("actuator_outputs", ACTUATOR_OUTPUTS),
+    ("sensor_combined", SENSOR_COMBINED),
+    ("hoverfly_pid", HOVERFLY_PID),
+    ("input_rc", INPUT_RC),
+    ("battery_status", BATTERY_STATUS),
+    ("vehicle_status", VEHICLE_STATUS),
+    ("hoverfly_loop", HOVERFLY_LOOP),
+    ("hoverfly_link", HOVERFLY_LINK),
+)
+FAST_TOPICS = ("vehicle_attitude", "vehicle_angular_velocity", "vehicle_rates_setpoint", "actuator_outputs",
+               "sensor_combined", "hoverfly_pid")
+SLOW_TOPICS = ("battery_status", "vehicle_status", "hoverfly_loop", "hoverfly_link")
+
+# The packing of each fast topic's D payload after its 5-byte header. An array signal goes in
+# whole as its raw bytes ('Ns' from tobytes): array('f') holds IEEE float32 in the host's order,
+# little-endian on every target (x86, ARM, RP2040) as ULog is, and one bytes argument costs far
+# less than N boxed floats. Constant zero fields are 'x' (the frame is zeroed once; CPython
+# writes the zeros again, MicroPython may skip them).
+_FAST_PACK = (
+    "Q16s17x",  # timestamp, q[4]; delta_q_reset and quat_reset_counter stay 0
+    "QQ12s12x",  # timestamp, timestamp_sample, xyz[3]; xyz_derivative stays 0
+    "Q12s8xfB",  # timestamp, roll, pitch, yaw, thrust_body = (0, 0, -throttle), reset_integral
+    "QI%ds%dx" % (4 * MAX_MOTORS, 4 * (_MAX_OUTPUTS - MAX_MOTORS)),  # timestamp, noutputs, output[]; rest 0
+    "Q12sI4x12sI4x",  # timestamp, gyro_rad, gyro_integral_dt, accelerometer_m_s2, accelerometer_integral_dt
+    "Q12f12sfBBB",  # timestamp, p[3] i[3] d[3] f[3], sum[3] = torque_norm, tpa, i_active, airmode, saturated
+)
+_RC_PACK = "<5sQQiHH36sBBBBbf"  # values[18] as the raw bytes of an array('H') of 18
+_RC_PACK_VALUES = "<5sQQiHH18HBBBBbf"  # the same from 18 separate ints (any other channel source)
+
+# array -> its raw bytes: array.tobytes on CPython (one C call); MicroPython's array has no
+# tobytes, bytes(a) copies the same buffer there.
+_raw = getattr(array, "tobytes", bytes)
+
+# PX4 vehicle_status constants: arming_state 1 standby / 2 armed; nav_state 10 acro, 15 stabilized.
+_ARMING_STANDBY = 1
+_ARMING_ARMED = 2
+_NAV_STATES = (10, 15, 15)
+
+_LEVEL_INFO = 6
+_LEVEL_NOTICE = 5
+_LEVEL_WARNING = 4
+_LEVEL_ERROR = 3
+
+
+def _fast_format():
+    fmt = "<"
+    for p in _FAST_PACK:
+        fmt += "5s" + p
+    return fmt
+
+
+def format_size(fields):
+    """Payload bytes of a format given as (type, name) pairs of base types."""
+    sizes = {"int8_t": 1, "uint8_t": 1, "bool": 1, "char": 1, "int16_t": 2, "uint16_t": 2,
+             "int32_t": 4, "uint32_t": 4, "float": 4, "int64_t": 8, "uint64_t": 8, "double": 8}
+    n = 0
+    for type_str, _ in fields:
+        i = type_str.find("[")
+        if i < 0:
+            n += sizes[type_str]
+        else:
+            n += sizes[type_str[:i]] * int(type_str[i + 1 : -1])
+    return n
+
+
+def event_text(event, detail):
+    """Words for one event record, as the log strings and the simulator print them."""
+    name = EVENT_NAMES[event] if 0 <= event < len(EVENT_NAMES) else "event%d" % event
+    if event == EV_MODE:
+        return "%s %s" % (name, MODE_NAMES[detail] if 0 <= detail < len(MODE_NAMES) else detail)
+    if event == EV_ARMING_BLOCKED:
+        return "%s %s" % (name, REASONS[detail][0] if detail in REASONS else detail)
+    if event == EV_DISARMED:
+        return "%s %s" % (name, DISARM_REASONS[detail] if 0 <= detail < len(DISARM_REASONS) else detail)
+    return "%s %d" % (name, detail)
+
+
+def _event_level(event):
+    if event == EV_IMU_FAULT or event == EV_CRASH:
+        return _LEVEL_ERROR
+    if (event == EV_RX_LOST or event == EV_FAILSAFE_STAGE1 or event == EV_FAILSAFE_STAGE2
+            or event == EV_FAILSAFE_END or event == EV_OUTPUT_FAILSAFE):
+        return _LEVEL_WARNING
+    if event == EV_ARMING_BLOCKED:
+        return _LEVEL_NOTICE
+    return _LEVEL_INFO
+
+
+def param_to_ulog(row, value):
+    """A parameter value as ULog can hold it: int -> int32, float -> float, a choice -> its index."""
+    default = row[1]
+    if isinstance(default, str):
+        choices = row[4]
+        for i in range(len(choices)):
+            if choices[i] == value:
+                return i
+        return -1
+    if isinstance(default, float):
+        return float(value)
+    return int(value)
+
+
+class Logger:
+    """Flight-log task. `open(sink)` starts a log (definitions at the next run), `close()` ends it.
+
+    Counters: frames (fast frames written), dropped (frames the sink refused), rc_frames,
+    events, param_changes, bytes (of the fast frames and input_rc).
+    """
+
+    def __init__(self, flight):
+        self.flight = flight
+        self.sink = None
+        self.writer = None
+        self.rate_hz = 0  # configured logging rate, 0 = off
+        self.frames = 0
+        self.dropped = 0
+        self.rc_frames = 0
+        self.events = 0
+        self.param_changes = 0
+        self.bytes = 0
+        self.sys_name = "hoverfly"
+        self._fmt = _fast_format()
+        self._fast_n = struct.calcsize(self._fmt)
+        self._rc_n = struct.calcsize(_RC_PACK)
+        self._stage = bytearray(_STAGE_BYTES)
+        self._stage_mv = memoryview(self._stage)
+        self._stage_last = _STAGE_BYTES - self._fast_n - self._rc_n  # flush once past this offset
+        self._off = 0  # staged bytes
+        self._staged = 0  # staged fast frames
+        self._staged_rc = 0  # staged input_rc samples
+        self._staged_t64 = 0  # time of the first staged frame
+        self._headers = [b"\0" * 5] * len(_FAST_PACK)
+        self._rc_header = b"\0" * 5
+        self._ids = {}
+        self._sink_free = None
+        self._t64 = 0
+        self._last_now = 0
+        self._slow_every = 100
+        self._slow_left = 0
+        self._ev_seen = 0
+        self._rc_seen = 0
+        self._par_seen = -1
+        self._par_last = {}
+        self._dropping = False
+        self._drop_t64 = 0
+        self._armed_t64 = 0
+        self._h = []
+        self._task = None
+        self._receiver = None
+        self._dt_us = 1000
+        self._arrays = None
+        self._pids = None
+        self._controller = None
+        self._setpoint = None
+        self._rc = None
+        self._events = None
+        self._params = None
+        self._rc_whole = False
+
+    # ---------------------------------------------------------------- set-up
+    def configure(self, params):
+        """Read blackbox_rate_hz (capped at the loop rate) and set the task's rate."""
+        rate = params.get("blackbox_rate_hz")
+        loop_hz = params.get("loop_hz")
+        if rate > loop_hz:
+            rate = loop_hz
+        self.rate_hz = rate
+        self._dt_us = 1000000 // loop_hz  # gyro_integral_dt of a pass with a new IMU sample
+        self._apply_rate()
+
+    def _apply_rate(self):
+        rate = self.rate_hz if (self.sink is not None and self.rate_hz > 0) else _IDLE_HZ
+        every = rate // _SLOW_HZ
+        self._slow_every = every if every > 0 else 1
+        task = self._task
+        if task is None:
+            for t in self.flight.scheduler.tasks:
+                if t.name == "log":
+                    task = t
+            self._task = task
+        if task is not None:
+            task.rate_hz = rate
+            task.period_us = 1000000 // rate
+
+    def open(self, sink):
+        """Start a log into `sink` (anything with write(bytes)); definitions go out at the next run."""
+        self.sink = sink
+        self._off = 0
+        self._staged = 0
+        self._staged_rc = 0
+        self._sink_free = getattr(sink, "free", None)
+        self.writer = None
+        self._apply_rate()
+
+    def close(self):
+        """End the log: the staged frames and a last sync; the sink's owner flushes and closes it."""
+        if self.writer is not None:
+            self.flush()
+            self.writer.sync()
+        self.sink = None
+        self.writer = None
+        self._apply_rate()
+
+    def _begin(self, now_us):
+        f = self.flight
+        w = UlogWriter(self.sink, 0)
+        self.writer = w
+        for name, fields in FORMATS:
+            w.add_format(name, fields)
+        w.add_info("char[%d] sys_name" % len(self.sys_name), self.sys_name)
+        board_name = getattr(f.board, "name", "board")
+        w.add_info("char[%d] ver_hw" % len(board_name), board_name)
+        try:
+            from hoverfly import __version__ as version
+        except ImportError:
+            version = "0"
+        w.add_info("char[%d] ver_sw" % len(version), version)
+        w.add_info("int32_t hoverfly_motor_count", f.motor_count)
+        values = f.params.values
+        for row in PARAMS:
+            v = param_to_ulog(row, values[row[0]])
+            w.add_param(row[0], v)
+            self._par_last[row[0]] = v
+        self._par_seen = f.params.changed
+        ids = {}
+        for name, _ in FORMATS:
+            ids[name] = w.subscribe(name)
+        self._ids = ids
+        rec = getattr(f, "receiver", None)
+        self._receiver = rec if (rec is not None and hasattr(rec, "link_quality_pct")) else None
+        headers = []
+        for i in range(len(FAST_TOPICS)):
+            size = struct.calcsize("<" + _FAST_PACK[i])
+            headers.append(struct.pack("<HBH", size + 2, 0x44, ids[FAST_TOPICS[i]]))
+        self._headers = headers
+        self._rc_header = struct.pack("<HBH", struct.calcsize(_RC_PACK) - 3, 0x44, ids["input_rc"])
+        # What the task reads every run, bound once: the stages fill these same objects in place.
+        sig = f.signals
+        c = f.controller
+        self._arrays = (sig.attitude.q, sig.gyro_rad_s, sig.setpoint.rate_rad_s, sig.motor_out,
+                        sig.gyro_raw_rad_s, sig.accel_raw_m_s2, sig.torque_norm)
+        self._pids = (c.roll, c.pitch, c.yaw)
+        self._controller = c
+        self._setpoint = sig.setpoint
+        self._rc = f.rc
+        self._events = f.events
+        self._params = f.params
+        ch = sig.rc_channels_us
+        self._rc_whole = len(ch) == _RC_CHANNELS and len(_raw(ch)) == 2 * _RC_CHANNELS
+        # The first run's due time is the scheduler's start (boot): log time is µs since then.
+        t0 = 0
+        task = self._task
+        if task is not None:
+            t0 = ticks_diff(now_us, task.next_us)
+            if t0 < 0:
+                t0 = 0
+        self._t64 = t0
+        self._last_now = now_us
+        # Events and the receiver frame from before this first run (the boot pass) go in too.
+        self._ev_seen = 0
+        self._rc_seen = 0
+        self._slow_left = 0
+        self._dropping = False
+        w.maybe_sync(t0)
+
+    # ------------------------------------------------------------------ the task
+    def task(self, now_us):
+        sink = self.sink
+        if sink is None or self.rate_hz <= 0:
+            return
+        if self.writer is None:
+            self._begin(now_us)
+            t = self._t64
+        else:
+            t = self._t64 + ticks_diff(now_us, self._last_now)
+            self._t64 = t
+            self._last_now = now_us
+        f = self.flight
+        raw = _raw
+        q, g, rs, mo, gr, ar, tq = self._arrays
+        r, p, y = self._pids
+        h0, h1, h2, h3, h4, h5 = self._headers
+        dt_us = self._dt_us if f._imu_us == now_us else 0
+        i_active = f.i_active
+        # One C call packs the whole frame into the staging buffer (headers, the seven copies of
+        # the timestamp, the PID terms); each array signal goes in as one bytes object.
+        off = self._off
+        if off == 0:
+            self._staged_t64 = t
+        struct.pack_into(
+            self._fmt, self._stage, off,
+            h0, t, raw(q),
+            h1, t, t, raw(g),
+            h2, t, raw(rs), -self._setpoint.throttle_norm, 0 if i_active else 1,
+            h3, t, f.motor_count, raw(mo),
+            h4, t, raw(gr), dt_us, raw(ar), dt_us,
+            h5, t, r.p, p.p, y.p, r.i, p.i, y.i, r.d, p.d, y.d, r.f, p.f, y.f, raw(tq), self._controller.tpa,
+            1 if i_active else 0, 1 if f.airmode_active else 0, 1 if f.mixer.saturated else 0,
+        )
+        off += self._fast_n
+        self._staged += 1
+        rc = self._rc
+        if rc.frames != self._rc_seen:
+            self._rc_seen = rc.frames
+            off = self._stage_rc(off, t)
+        self._off = off
+        if off > self._stage_last:
+            self._flush()
+        if self._events.count != self._ev_seen:
+            self._log_events(now_us, t)
+        if self._params.changed != self._par_seen:
+            self._log_param_changes(t)
+        self._slow_left -= 1
+        if self._slow_left <= 0:
+            self._slow_left = self._slow_every
+            self._log_slow(t)
+
+    def flush(self):
+        """Hand the staged frames to the sink now (close() and every other log write do this first)."""
+        if self._off > 0 and self.sink is not None:
+            self._flush()
+
+    def _flush(self):
+        n = self._off
+        if n == 0:
+            return
+        frames = self._staged
+        rc = self._staged_rc
+        self._off = 0
+        self._staged = 0
+        self._staged_rc = 0
+        if self._write(self.sink, self._stage_mv[:n], self._staged_t64):
+            self.frames += frames
+            self.rc_frames += rc
+            self.bytes += n
+        else:
+            self.dropped += frames + rc
+
+    def _write(self, sink, buf, t):
+        """One batch to the sink, whole or not at all; a refused batch opens a dropout (from `t`, its
+        first frame's time) that the next batch to fit closes."""
+        n = len(buf)
+        if self._dropping:
+            free = self._sink_free
+            if free is not None and free() < n + 5:
+                return False
+            ms = (t - self._drop_t64) // 1000
+            self.writer.dropout(ms)
+            self._dropping = False
+        try:
+            got = sink.write(buf)
+        except OSError:
+            got = 0
+        if got is not None and got < n:
+            if not self._dropping:
+                self._dropping = True
+                self._drop_t64 = t
+            return False
+        return True
+
+    def _stage_rc(self, off, t):
+        """input_rc for the new receiver frame, staged after this run's frame; returns the new offset."""
+        f = self.flight
+        ch = f.signals.rc_channels_us
+        rec = self._receiver
+        if rec is not None:
+            lq = rec.link_quality_pct
+            lq = 0 if lq < 0 else (100 if lq > 100 else lq)
+            fs = 1 if rec.rx_failsafe else 0
+            total = rec.frames & 0xFFFF
+            errors = rec.errors & 0xFFFF
+            rssi_dbm = rec.rssi_dbm
+        else:
+            lq = 100 if f.rx_ok else 0
+            fs = 0
+            total = f.rc.frames & 0xFFFF
+            errors = 0
+            rssi_dbm = 0
+        if self._rc_whole:
+            struct.pack_into(_RC_PACK, self._stage, off, self._rc_header, t, t, lq, errors, total, _raw(ch),
+                             _RC_CHANNELS, fs, 0 if f.rx_ok else 1, 0, lq, rssi_dbm)
+        else:  # another board's channel source: pad or cut to PX4's 18
+            v = [0] * _RC_CHANNELS
+            for i in range(len(ch) if len(ch) < _RC_CHANNELS else _RC_CHANNELS):
+                v[i] = ch[i]
+            struct.pack_into(_RC_PACK_VALUES, self._stage, off, self._rc_header, t, t, lq, errors, total, *v,
+                             len(ch), fs, 0 if f.rx_ok else 1, 0, lq, rssi_dbm)
+        self._staged_rc += 1
+        return off + self._rc_n
+
+    def _log_events(self, now_us, t):
+        self._flush()
+        self._h = []
+        self._ev_seen = self.flight.events.drain(self._ev_seen, self._collect_event)
+        w = self.writer
+        for et, event, detail in self._h:
+            # Back-date by the event's age in ticks (it may come from an earlier pass).
+            age = ticks_diff(now_us, et)
+            te = t - age if 0 <= age <= t else t
+            w.log_message(_event_level(event), te, event_text(event, detail))
+            self.events += 1
+        self._h = []
+
+    def _collect_event(self, t_us, event, detail):
+        self._h.append((t_us, event, detail))
+
+    def _log_param_changes(self, t):
+        self._flush()
+        f = self.flight
+        self._par_seen = f.params.changed
+        values = f.params.values
+        last = self._par_last
+        w = self.writer
+        for row in PARAMS:
+            name = row[0]
+            v = param_to_ulog(row, values[name])
+            if last.get(name) != v:
+                last[name] = v
+                w.param_change(name, v, t)
+                self.param_changes += 1
+
+    def _log_slow(self, t):
+        self._flush()
+        f = self.flight
+        w = self.writer
+        ids = self._ids
+        s = f.signals
+        armed = f.arming.armed
+        if armed and self._armed_t64 == 0:
+            self._armed_t64 = t if t > 0 else 1
+        elif not armed:
+            self._armed_t64 = 0
+        mah = getattr(s, "mah_drawn", 0.0)
+        w.write_data(ids["battery_status"], t, (s.battery_v, s.current_a, mah, -1.0, s.battery_v > 0.5))
+        mode = f.signals.setpoint.mode
+        fs_state = f.failsafe.state
+        w.write_data(ids["vehicle_status"], t, (
+            self._armed_t64, _ARMING_ARMED if armed else _ARMING_STANDBY,
+            _NAV_STATES[mode] if 0 <= mode < 3 else 0, fs_state != 0, not f.rx_ok,
+            _clamp_int(mode, 0, 255), _clamp_int(fs_state, 0, 255), f.imu_ok, f.calibration.calibrated))
+        sc = f.scheduler
+        w.write_data(ids["hoverfly_loop"], t, (
+            _clamp_int(sc.passes, 0, _U32_MAX), _clamp_int(sc.cycle_us, 0, _U32_MAX),
+            _clamp_int(sc.cycle_max_us, 0, _U32_MAX), _clamp_int(sc.jitter_max_us, 0, _U32_MAX),
+            _clamp_int(sc.overruns, 0, _U32_MAX), _clamp_int(self.frames, 0, _U32_MAX),
+            _clamp_int(self.dropped, 0, _U32_MAX)))
+        rec = getattr(f, "receiver", None)
+        if rec is not None:
+            link = (_clamp_int(getattr(rec, "frames", 0), 0, _U32_MAX),
+                    _clamp_int(getattr(rec, "errors", 0), 0, _U32_MAX),
+                    float(getattr(rec, "frame_rate_hz", 0.0)),
+                    _clamp_int(getattr(rec, "link_quality_pct", 0), 0, 100),
+                    float(getattr(rec, "rssi_dbm", 0.0)), bool(getattr(rec, "rx_failsafe", False)), f.rx_ok)
+        else:
+            link = (_clamp_int(f.rc.frames, 0, _U32_MAX), 0, 0.0, 100 if f.rx_ok else 0, 0.0, False, f.rx_ok)
+        w.write_data(ids["hoverfly_link"], t, link)
+        w.maybe_sync(t)
+
+
+def _clamp_int(v, lo, hi):
+    try:
+        v = int(v)
+    except (TypeError, ValueError):
+        return lo
+    if v < lo:
+        return lo
+    if v > hi:
+        return hi
+    return v
+

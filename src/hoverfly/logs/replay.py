@@ -1,0 +1,325 @@
+"""`hoverfly log replay`: a logged flight's sensor and receiver streams through a fresh Flight, new gains.
+
+Takes a hoverfly log written at the loop rate (blackbox_rate_hz = loop_hz: one sensor_combined
+sample per pass) and optional parameter changes. A `ReplayBoard` serves the logged IMU samples
+(gyro_integral_dt = 0 marks a pass without a new sample), battery and attitude; a
+`ReplayReceiver` stands in for the receiver codec and hands over each logged input_rc frame in
+the pass it arrived. The Flight runs on the logged tick times, so every dt is the original's.
+
+It is an open-loop replay: the craft's motion is the logged one, whatever the new outputs
+would have done to it. What it shows is what the controller would have commanded: with the
+logged parameters the outputs match the log to float rounding (a check that the log is
+complete); with changed ones, how the P/I/D/F terms, the PID sums and the motors change.
+
+sensor_combined holds the samples after board alignment (body frame), so the replay runs
+with board alignment zeroed.
+"""
+
+import os
+
+import numpy as np
+
+from hoverfly.compat import TICKS_PERIOD, ticks_add
+from hoverfly.core.board import Board
+from hoverfly.core.flight import Flight
+from hoverfly.core.params import Params
+from hoverfly.errors import UserError
+
+AXES = ("roll", "pitch", "yaw")
+_ORIGIN_TICKS = TICKS_PERIOD - 3_000_000  # as the simulator: the replay crosses the tick wrap
+_ALIGNMENT = ("board_roll_deg", "board_pitch_deg", "board_yaw_deg")
+_RC_CHANNELS = 18
+
+
+class ReplayBoard(Board):
+    name = "replay"
+
+    def __init__(self, log):
+        sc = log.topic("sensor_combined")
+        self.t64 = sc["timestamp"].astype(np.int64)
+        self.gyro = log.vector("sensor_combined", "gyro_rad", 3).astype(np.float32).tolist()
+        self.accel = log.vector("sensor_combined", "accelerometer_m_s2", 3).astype(np.float32).tolist()
+        self.fresh = (sc["gyro_integral_dt"] > 0).tolist()
+        self.k = -1
+        self.now = 0
+        att = log.vector("vehicle_attitude", "q", 4)
+        self.q = None if att is None else att.tolist()
+        bat = log.topic("battery_status")
+        self._bat_t = None if bat is None else bat["timestamp"].astype(np.int64)
+        self._bat = None if bat is None else np.stack([bat["voltage_v"], bat["current_a"]], axis=1).tolist()
+
+    def now_us(self):
+        return self.now
+
+    def read_imu(self, gyro_rad_s, accel_m_s2):
+        k = self.k
+        if not self.fresh[k]:
+            return False
+        g = self.gyro[k]
+        a = self.accel[k]
+        for i in range(3):
+            gyro_rad_s[i] = g[i]
+            accel_m_s2[i] = a[i]
+        return True
+
+    def read_attitude(self, q_out):
+        if self.q is None or self.k >= len(self.q):
+            return False
+        q = self.q[self.k]
+        for i in range(4):
+            q_out[i] = q[i]
+        return True
+
+    def write_motors(self, motor_out, count):
+        pass
+
+    def read_battery(self, signals):
+        if self._bat_t is None:
+            return
+        j = int(np.searchsorted(self._bat_t, self.t64[self.k], side="right")) - 1
+        if j >= 0:
+            signals.battery_v = self._bat[j][0]
+            signals.current_a = self._bat[j][1]
+
+
+class ReplayReceiver:
+    """Stands in for core.receiver.Receiver: the logged frames, each in the pass it arrived."""
+
+    def __init__(self, log, board):
+        self.board = board
+        rc = log.topic("input_rc")
+        self.frames_at = {}
+        self.values = []
+        if rc is not None:
+            vals = log.vector("input_rc", "values", _RC_CHANNELS)
+            for j, t in enumerate(rc["timestamp"].astype(np.int64).tolist()):
+                self.frames_at[t] = j
+            self.values = vals.astype(int).tolist()
+            self.lq = rc["link_quality"].astype(int).tolist() if "link_quality" in rc else None
+        self.channels_us = [1500] * _RC_CHANNELS
+        self.frames = 0
+        self.errors = 0
+        self.frame_rate_hz = 0
+        self.link_quality_pct = 0
+        self.rssi_dbm = 0
+        self.rx_failsafe = False
+        self.new_frames = 0
+        self.telemetry = None
+
+    def configure(self, params):
+        pass
+
+    def start(self, now_us):
+        pass
+
+    def update(self, now_us, board):
+        b = self.board
+        j = self.frames_at.get(int(b.t64[b.k]))
+        if j is None:
+            self.new_frames = 0
+            return 0
+        self.channels_us = self.values[j]
+        self.frames += 1
+        self.new_frames = 1
+        return 1
+
+    def copy_channels(self, out):
+        src = self.channels_us
+        n = len(out) if len(out) < len(src) else len(src)
+        for i in range(n):
+            out[i] = src[i]
+
+    def telemetry_due(self, now_us):
+        return False
+
+    def frame_age_us(self, now_us):
+        return 0
+
+
+def params_from_log(log, overrides=()):
+    """The logged parameters (board alignment zeroed), then `overrides` (name, value).
+
+    Returns (Params, [parameters that could not be applied]); raises UserError on a bad override."""
+    params = Params()
+    unknown = []
+    for name, value in log.params.items():
+        if name in params.values:
+            err = params.set(name, value)
+            if err:
+                unknown.append("%s (%s)" % (name, err))
+    for name in _ALIGNMENT:
+        params.set(name, 0.0)
+    for name, value in overrides:
+        err = params.set(name, value)
+        if err:
+            raise UserError("--set %s" % err)
+    return params, unknown
+
+
+class ReplayResult:
+    """Old (logged) and new (replayed) controller outputs, pass by pass."""
+
+    def __init__(self, t_s, old, new, warnings, overrides):
+        self.t_s = t_s
+        self.old = old
+        self.new = new
+        self.warnings = warnings
+        self.overrides = list(overrides)
+
+    def max_abs_diff(self):
+        return {k: float(np.max(np.abs(self.new[k] - self.old[k]))) if len(self.old[k]) else 0.0
+                for k in self.old if k in self.new}
+
+    def rms(self, which):
+        d = self.old if which == "old" else self.new
+        return {k: float(np.sqrt(np.mean(np.square(v)))) if len(v) else 0.0 for k, v in d.items()}
+
+    def to_dict(self):
+        return {"passes": len(self.t_s), "overrides": [[n, v] for n, v in self.overrides],
+                "max_abs_diff": self.max_abs_diff(), "rms_old": self.rms("old"), "rms_new": self.rms("new"),
+                "warnings": self.warnings}
+
+
+def _logged_outputs(log, n_motors, n):
+    old = {}
+    pid = log.topic("hoverfly_pid")
+    for term in ("p", "i", "d", "f", "sum"):
+        for a, axis in enumerate(AXES):
+            key = "%s_%s" % (term, axis)
+            if pid is not None and "%s[%d]" % (term, a) in pid:
+                old[key] = pid["%s[%d]" % (term, a)][:n].astype(np.float64)
+    out = log.topic("actuator_outputs")
+    for m in range(n_motors):
+        if out is not None and "output[%d]" % m in out:
+            old["motor%d" % m] = out["output[%d]" % m][:n].astype(np.float64)
+    sp = log.topic("vehicle_rates_setpoint")
+    if sp is not None:
+        for axis in AXES:
+            old["setpoint_" + axis] = sp[axis][:n].astype(np.float64)
+    g = log.vector("vehicle_angular_velocity", "xyz", 3)
+    if g is not None:
+        for a, axis in enumerate(AXES):
+            old["gyro_" + axis] = g[:n, a].astype(np.float64)
+    return old
+
+
+def replay(log, overrides=()):
+    """Run the log through a fresh Flight with `overrides` applied; returns a ReplayResult."""
+    warnings = []
+    if log.topic("sensor_combined") is None or log.vector("sensor_combined", "gyro_rad", 3) is None:
+        raise UserError("%s: no sensor_combined samples: not a hoverfly flight log, nothing to replay"
+                        % log.path)
+    if log.topic("input_rc") is None:
+        warnings.append("no input_rc frames in the log: the replay has no pilot input")
+    params, unknown = params_from_log(log, overrides)
+    for u in unknown:
+        warnings.append("logged parameter not applied: " + u)
+    loop_hz = params.get("loop_hz")
+    rate = log.rate_hz("sensor_combined")
+    if rate > 0 and abs(rate - loop_hz) > 0.02 * loop_hz:
+        warnings.append("sensors logged at %.0f Hz but the loop ran at %d Hz: a faithful replay needs "
+                        "blackbox_rate_hz = loop_hz" % (rate, loop_hz))
+    board = ReplayBoard(log)
+    flight = Flight(board, params)
+    flight.receiver = ReplayReceiver(log, board)
+    changes = sorted(log.changed_params, key=lambda c: c[0])
+    override_names = {n for n, _ in overrides}
+    ci = 0
+    n = len(board.t64)
+    n_motors = log.motor_count()
+    new = {}
+    for term in ("p", "i", "d", "f", "sum"):
+        for axis in AXES:
+            new["%s_%s" % (term, axis)] = np.zeros(n)
+    for m in range(n_motors):
+        new["motor%d" % m] = np.zeros(n)
+    for axis in AXES:
+        new["setpoint_" + axis] = np.zeros(n)
+        new["gyro_" + axis] = np.zeros(n)
+    t64 = board.t64.tolist()
+    flight.start(_ORIGIN_TICKS)
+    s = flight.signals
+    c = flight.controller
+    pids = (c.roll, c.pitch, c.yaw)
+    cols_pid = [[new["%s_%s" % (term, axis)] for term in ("p", "i", "d", "f", "sum")] for axis in AXES]
+    cols_m = [new["motor%d" % m] for m in range(n_motors)]
+    cols_sp = [new["setpoint_" + a] for a in AXES]
+    cols_g = [new["gyro_" + a] for a in AXES]
+    for k in range(n):
+        t = t64[k]
+        while ci < len(changes) and changes[ci][0] <= t:
+            _, name, value = changes[ci]
+            ci += 1
+            if name not in override_names and name not in _ALIGNMENT and name in params.values:
+                params.set(name, value)
+        board.k = k
+        now = ticks_add(_ORIGIN_TICKS, t)
+        board.now = now
+        flight.step(now)
+        for a in range(3):
+            pid = pids[a]
+            col = cols_pid[a]
+            col[0][k] = pid.p
+            col[1][k] = pid.i
+            col[2][k] = pid.d
+            col[3][k] = pid.f
+            col[4][k] = s.torque_norm[a]
+            cols_sp[a][k] = s.setpoint.rate_rad_s[a]
+            cols_g[a][k] = s.gyro_rad_s[a]
+        for m in range(n_motors):
+            cols_m[m][k] = s.motor_out[m]
+    # The logged values are float32: compare the replay at the same precision.
+    new = {k: v.astype(np.float32).astype(np.float64) for k, v in new.items()}
+    old = _logged_outputs(log, n_motors, n)
+    new = {k: v for k, v in new.items() if k in old}
+    t_s = (board.t64 - log.start_us) * 1e-6
+    return ReplayResult(t_s, old, new, warnings, overrides)
+
+
+def plot_replay(result, out_dir, n_motors=4):
+    """replay_pid.png (P, D and sum per axis, old against new) and replay_motors.png; returns the paths."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    os.makedirs(out_dir, exist_ok=True)
+    t = result.t_s
+    paths = []
+    fig, axs = plt.subplots(3, 1, figsize=(11, 8), sharex=True)
+    for a, axis in enumerate(AXES):
+        ax = axs[a]
+        for term, color in (("p", "tab:blue"), ("d", "tab:green"), ("sum", "k")):
+            key = "%s_%s" % (term, axis)
+            if key in result.old:
+                ax.plot(t, result.old[key], color=color, lw=0.7, alpha=0.5, label="%s logged" % term.upper())
+                ax.plot(t, result.new[key], color=color, lw=0.8, ls="--", label="%s replayed" % term.upper())
+        ax.set_ylabel(axis + " (torque)")
+        ax.grid(alpha=0.3)
+    axs[0].legend(loc="upper right", ncol=3, fontsize=8)
+    changes = ", ".join("%s=%s" % (nm, v) for nm, v in result.overrides) or "no changes"
+    axs[0].set_title("Replay: logged against replayed PID terms (%s)" % changes)
+    axs[-1].set_xlabel("time (s)")
+    fig.tight_layout()
+    p = os.path.join(out_dir, "replay_pid.png")
+    fig.savefig(p, dpi=90)
+    plt.close(fig)
+    paths.append(p)
+    fig, ax = plt.subplots(figsize=(11, 4.5))
+    for m in range(n_motors):
+        key = "motor%d" % m
+        if key in result.old:
+            line = ax.plot(t, result.old[key], lw=0.7, alpha=0.5, label="motor %d logged" % (m + 1))
+            ax.plot(t, result.new[key], lw=0.8, ls="--", color=line[0].get_color(),
+                    label="motor %d replayed" % (m + 1))
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("output (0 = stop, idle..1)")
+    ax.set_title("Replay: motors, logged against replayed (%s)" % changes)
+    ax.legend(loc="upper right", ncol=2, fontsize=7)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    p = os.path.join(out_dir, "replay_motors.png")
+    fig.savefig(p, dpi=90)
+    plt.close(fig)
+    paths.append(p)
+    return paths

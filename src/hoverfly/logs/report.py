@@ -1,0 +1,86 @@
+"""`hoverfly log report`: every plot of a flight log plus an index.html that ties them together.
+
+The page holds the log's summary (system, duration, topics and their rates, dropouts,
+warnings of a partial read), the log messages (arming, failsafe, modes), the parameters
+that differ from hoverfly's defaults and their changes in flight, the step-response numbers
+per axis, and the PNGs of `hoverfly.logs.plot`.
+"""
+
+import html
+import json
+import os
+
+from hoverfly.logs import analysis, plot
+from hoverfly.logs.data import params_table
+
+
+def _table(headers, rows):
+    out = ["<table><tr>" + "".join("<th>%s</th>" % html.escape(str(h)) for h in headers) + "</tr>"]
+    for r in rows:
+        cells = "".join("<td>%s</td>" % html.escape("" if c is None else str(c)) for c in r)
+        out.append("<tr>" + cells + "</tr>")
+    out.append("</table>")
+    return "\n".join(out)
+
+
+def write_report(log, out_dir):
+    """Write plots and index.html into out_dir; returns {"index": path, "plots": [...], "steps": {...}}."""
+    os.makedirs(out_dir, exist_ok=True)
+    responses = analysis.step_responses(log)
+    written = []
+    for name, fn, title in plot.PLOTS:
+        path = os.path.join(out_dir, name + ".png")
+        p = fn(log, path, responses) if name == "step_response" else fn(log, path)
+        if p is not None:
+            written.append((name, title, p))
+    s = log.summary
+    steps = {axis: None if r is None else {k: r[k] for k in ("rise_ms", "t90_ms", "delay_ms", "overshoot_pct",
+                                                             "settled", "windows")}
+             for axis, r in responses.items()}
+    parts = [
+        "<!doctype html><html><head><meta charset='utf-8'><title>hoverfly log report: %s</title>"
+        % html.escape(os.path.basename(log.path)),
+        "<style>body{font-family:sans-serif;margin:1.5em;max-width:1100px}table{border-collapse:collapse;"
+        "margin:0.5em 0}td,th{border:1px solid #ccc;padding:2px 8px;font-size:90%}th{background:#eee}"
+        "img{max-width:100%;border:1px solid #ddd;margin:0.5em 0}.warn{color:#a40}</style></head><body>",
+        "<h1>Flight log %s</h1>" % html.escape(os.path.basename(log.path)),
+        "<p>%s, %s, software %s; %.2f s logged.</p>" % (
+            html.escape(str(log.info.get("sys_name", "?"))), html.escape(str(log.info.get("ver_hw", "?"))),
+            html.escape(str(log.info.get("ver_sw", "?"))), s["duration_s"]),
+    ]
+    for w in s["warnings"]:
+        parts.append("<p class='warn'>warning: %s</p>" % html.escape(w))
+    parts.append("<h2>Topics</h2>")
+    parts.append(_table(("topic", "samples", "rate (Hz)"),
+                        [(t["name"], t["samples"], "%.1f" % t["rate_hz"]) for t in s["topics"]]))
+    if s["dropouts"]:
+        parts.append("<p class='warn'>%d dropouts, %d ms of data lost.</p>"
+                     % (len(s["dropouts"]), sum(d["duration_ms"] for d in s["dropouts"])))
+    parts.append("<h2>Messages</h2>")
+    parts.append(_table(("time (s)", "level", "text"),
+                        [("%.3f" % ((m["timestamp_us"] - log.start_us) * 1e-6), m["level"], m["text"])
+                         for m in s["messages"]]))
+    parts.append("<h2>Step response (setpoint to gyro)</h2>")
+    parts.append(_table(("axis", "rise 10-90 % (ms)", "90 % at (ms)", "delay 50 % (ms)", "overshoot (%)",
+                         "settled", "windows"),
+                        [(a,) + ((r["rise_ms"], r["t90_ms"], r["delay_ms"], r["overshoot_pct"], r["settled"],
+                                  r["windows"]) if r else ("not enough stick activity",) + ("",) * 5)
+                         for a, r in steps.items()]))
+    changed = [r for r in params_table(log) if r[4]]
+    parts.append("<h2>Parameters that differ from the defaults</h2>")
+    parts.append(_table(("name", "value", "default", "unit", ""), changed) if changed else "<p>none</p>")
+    if log.changed_params:
+        parts.append("<h2>Parameter changes in flight</h2>")
+        parts.append(_table(("time (s)", "name", "value"),
+                            [("%.3f" % ((t - log.start_us) * 1e-6), k, v) for t, k, v in log.changed_params]))
+    parts.append("<h2>Plots</h2>")
+    for name, title, p in written:
+        parts.append("<h3>%s</h3><img src='%s' alt='%s'>"
+                     % (html.escape(title), html.escape(os.path.basename(p)), html.escape(name)))
+    parts.append("</body></html>")
+    index = os.path.join(out_dir, "index.html")
+    with open(index, "w") as f:
+        f.write("\n".join(parts))
+    with open(os.path.join(out_dir, "steps.json"), "w") as f:
+        json.dump(steps, f, indent=1)
+    return {"index": index, "plots": [p for _, _, p in written], "steps": steps}

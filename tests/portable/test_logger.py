@@ -1,0 +1,249 @@
+"""Flight logger (core/logger.py): what a Flight writes into a ULog sink, checked with a tiny reader.
+
+Runs under pytest and MicroPython (tests/portable/mprun.py test_logger).
+"""
+
+import struct
+
+from hoverfly.core.board import Board
+from hoverfly.core.flight import Flight
+from hoverfly.core.logger import FAST_TOPICS, FORMATS, format_size
+from hoverfly.protocols.ulog import RingSink
+
+_PERIOD_US = 1000
+
+
+class _Board(Board):
+    name = "test"
+
+    def __init__(self):
+        self.k = 0
+        self.frame_every = 4
+        self.arm = False
+        self.imu = True
+
+    def now_us(self):
+        return 0
+
+    def read_imu(self, gyro, accel):
+        if not self.imu:
+            return False
+        gyro[0] = 0.01 * (self.k % 7)
+        gyro[1] = -0.02
+        gyro[2] = 0.003
+        accel[0] = 0.1
+        accel[1] = -0.1
+        accel[2] = -9.8
+        return True
+
+    def write_motors(self, out, n):
+        pass
+
+
+class _Sink:
+    def __init__(self):
+        self.data = bytearray()
+
+    def write(self, b):
+        self.data.extend(b)
+        return len(b)
+
+
+def _parse(data):
+    """formats {name: fields}, subs {msg_id: name}, samples {name: [payload]}, strings, params,
+    syncs, dropouts."""
+    assert bytes(data[0:7]) == b"ULog\x01\x12\x35"
+    formats = {}
+    subs = {}
+    samples = {}
+    strings = []
+    params = []
+    syncs = 0
+    dropouts = 0
+    off = 16
+    n = len(data)
+    while off + 3 <= n:
+        size = data[off] | (data[off + 1] << 8)
+        kind = data[off + 2]
+        body = bytes(data[off + 3 : off + 3 + size])
+        off += 3 + size
+        if kind == 0x46:
+            text = body.decode()
+            name, fields = text.split(":", 1)
+            formats[name] = fields
+        elif kind == 0x41:
+            msg_id = body[1] | (body[2] << 8)
+            subs[msg_id] = body[3:].decode()
+            samples[subs[msg_id]] = []
+        elif kind == 0x44:
+            msg_id = body[0] | (body[1] << 8)
+            samples[subs[msg_id]].append(body[2:])
+        elif kind == 0x4C:
+            strings.append(body[9:].decode())
+        elif kind == 0x50:
+            klen = body[0]
+            params.append(body[1 : 1 + klen].decode())
+        elif kind == 0x53:
+            syncs += 1
+        elif kind == 0x4F:
+            dropouts += 1
+    assert off == n
+    return formats, subs, samples, strings, params, syncs, dropouts
+
+
+def _fly(passes, rate_hz=1000, sink=None, start_log=True, setup=None):
+    board = _Board()
+    f = Flight(board, None)
+    f.params.set("blackbox_rate_hz", rate_hz)
+    f.params.set("gyro_cal_ms", 100)
+    if setup is not None:
+        setup(f)
+    sink = _Sink() if sink is None else sink
+    if start_log:
+        f.logger.open(sink)
+    t = 100000
+    f.start(t)
+    for k in range(passes):
+        board.k = k
+        t += _PERIOD_US
+        f.step(t)
+    return f, sink
+
+
+def test_every_fast_topic_gets_one_sample_per_pass_at_the_loop_rate():
+    f, sink = _fly(50)
+    formats, subs, samples, strings, params, syncs, dropouts = _parse(sink.data)
+    for name in FAST_TOPICS:
+        assert len(samples[name]) == 50, (name, len(samples[name]))
+    assert f.logger.frames == 50 and f.logger.dropped == 0
+
+
+def test_samples_are_exactly_the_size_of_their_format():
+    f, sink = _fly(5)
+    formats, subs, samples, strings, params, syncs, dropouts = _parse(sink.data)
+    for name, fields in FORMATS:
+        assert name in formats
+        for payload in samples[name]:
+            assert len(payload) == format_size(fields), name
+
+
+def test_timestamps_count_microseconds_since_the_start():
+    f, sink = _fly(5)
+    samples = _parse(sink.data)[2]
+    ts = [struct.unpack_from("<Q", p, 0)[0] for p in samples["vehicle_attitude"]]
+    assert ts == [1000, 2000, 3000, 4000, 5000]
+
+
+def test_angular_velocity_and_sensor_samples_hold_what_the_pass_used():
+    f, sink = _fly(3)
+    samples = _parse(sink.data)[2]
+    s = f.signals
+    last = samples["vehicle_angular_velocity"][-1]
+    xyz = struct.unpack_from("<3f", last, 16)
+    for i in range(3):
+        assert xyz[i] == s.gyro_rad_s[i]
+    sc = samples["sensor_combined"][-1]
+    gyro = struct.unpack_from("<3f", sc, 8)
+    dt = struct.unpack_from("<I", sc, 20)[0]
+    accel = struct.unpack_from("<3f", sc, 28)
+    for i in range(3):
+        assert gyro[i] == s.gyro_raw_rad_s[i]
+        assert accel[i] == s.accel_raw_m_s2[i]
+    assert dt == _PERIOD_US
+
+
+def test_a_pass_without_a_new_imu_sample_logs_integral_dt_zero():
+    board_ref = []
+
+    def setup(f):
+        board_ref.append(f.board)
+
+    f, sink = _fly(3, setup=setup)
+    board_ref[0].imu = False
+    f.step(100000 + 4 * _PERIOD_US)
+    sc = _parse(sink.data)[2]["sensor_combined"]
+    assert struct.unpack_from("<I", sc[-1], 20)[0] == 0
+    assert struct.unpack_from("<I", sc[-2], 20)[0] == _PERIOD_US
+
+
+def test_logging_rate_is_a_parameter():
+    f, sink = _fly(100, rate_hz=250)
+    samples = _parse(sink.data)[2]
+    assert 24 <= len(samples["vehicle_attitude"]) <= 26
+
+
+def test_slow_topics_come_about_ten_times_a_second():
+    f, sink = _fly(1000)
+    samples = _parse(sink.data)[2]
+    for name in ("battery_status", "vehicle_status", "hoverfly_loop", "hoverfly_link"):
+        assert 9 <= len(samples[name]) <= 11, (name, len(samples[name]))
+
+
+def test_parameters_are_logged_and_a_change_comes_after_the_samples_of_its_pass():
+    f, sink = _fly(10)
+    f.params.set("p_roll", 60)
+    f.step(100000 + 11 * _PERIOD_US)
+    data = sink.data
+    params = _parse(data)[4]
+    assert "int32_t p_roll" in params and "int32_t blackbox_rate_hz" in params
+    assert params.count("int32_t p_roll") == 2
+    # the change's 'P' follows this pass's attitude sample
+    i_change = bytes(data).rfind(b"int32_t p_roll")
+    i_last_sample = bytes(data).rfind(struct.pack("<Q", 11000))
+    assert i_last_sample < i_change
+
+
+def test_events_become_log_strings():
+    f, sink = _fly(300)
+    strings = _parse(sink.data)[3]
+    assert "gyro_calibrated 0" in strings
+    assert any(s.startswith("mode ") for s in strings)
+
+
+class _SyncCounter:
+    """Keeps nothing but the count of sync messages (each write is one whole message)."""
+
+    def __init__(self):
+        self.syncs = 0
+
+    def write(self, b):
+        if len(b) == 11 and b[2] == 0x53:
+            self.syncs += 1
+        return len(b)
+
+
+def test_a_sync_marker_goes_out_about_once_a_second():
+    f, sink = _fly(2500, sink=_SyncCounter())
+    assert 2 <= sink.syncs <= 4
+
+
+def test_without_a_sink_nothing_is_written_and_the_task_idles():
+    f, sink = _fly(20, start_log=False)
+    assert len(sink.data) == 0
+    for t in f.scheduler.tasks:
+        if t.name == "log":
+            assert t.rate_hz == 1
+
+
+def test_a_full_ring_drops_whole_frames_and_marks_the_gap():
+    ring = RingSink(12000)
+    f, _ = _fly(1, sink=ring)
+    out = bytearray()
+
+    def take(mv):
+        out.extend(mv)
+
+    ring.drain(take)
+    t = 100000 + _PERIOD_US
+    for _ in range(200):  # no draining: the ring fills, frames drop
+        t += _PERIOD_US
+        f.step(t)
+    assert f.logger.dropped > 0
+    ring.drain(take)
+    for _ in range(5):
+        t += _PERIOD_US
+        f.step(t)
+    ring.drain(take)
+    samples = _parse(out)[2]
+    assert len(samples["vehicle_attitude"]) == f.logger.frames
+    assert _parse(out)[6] >= 1  # a dropout 'O' marks the gap
