@@ -1,0 +1,1 @@
+"""The Raspberry Pi Pico board (MicroPython-only device code): pins, board, DShot PIO, main loop."""

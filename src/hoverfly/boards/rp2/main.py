@@ -1,0 +1,171 @@
+"""Boot and main loop on the Pico: board set-up, the flight pass at loop_hz, GC in the slack.
+
+`main()` builds the Rp2Board (pins.py), starts every device, prints one status line,
+loads the stored parameters, builds the Flight and runs the pass at `loop_hz` on the
+tick clock. After each pass it collects garbage only when the time left before the next
+pass is larger than a collection costs and the free heap is getting low — never
+mid-pass. It measures the loop: pass time, jitter against the period, overruns, GC runs
+(`LoopStats`, printed by the CLI `status`).
+
+Bad input never spins a motor: a missing or unsupported IMU, an IMU bus error in flight
+or a silent receiver each set a board fault (blink code on the LED, a status line) and
+the core refuses to arm (no IMU, no link) or disarms (IMU stale); the board stops the
+motors itself for any IMU fault. An exception in the loop stops the motors, prints the
+status and the exception, and returns to the REPL. MicroPython-only.
+"""
+
+import gc
+
+from hoverfly.compat import print_exception, ticks_add, ticks_diff
+
+# A collection of the Pico's ~200 KB heap takes milliseconds on an RP2040
+# (reference/micropython.md §2.5): start one only when the slack left before the next pass
+# is longer than the last collection took (this guess until one has been measured).
+GC_GUESS_US = 1000
+GC_FREE_FRACTION = 2  # and only once half of what the last collection freed is used up
+
+
+class LoopStats:
+    """What the loop cost: pass time, jitter and overruns, garbage collections."""
+
+    def __init__(self):
+        self.passes = 0
+        self.pass_us = 0
+        self.pass_max_us = 0
+        self.jitter_max_us = 0
+        self.overruns = 0
+        self.gc_runs = 0
+        self.gc_max_us = 0
+        self.gc_skipped = 0
+
+    def line(self):
+        return "loop: %d passes, pass %d us (max %d), jitter max %d us, %d overruns, %d gc (max %d us)" % (
+            self.passes, self.pass_us, self.pass_max_us, self.jitter_max_us, self.overruns, self.gc_runs,
+            self.gc_max_us)
+
+
+def load_params(board, params):
+    """Stored parameters into params, if storage has any (core/storage.py when it is there)."""
+    blob = board.load_storage()
+    if not blob:
+        return False
+    try:
+        from hoverfly.core import storage
+    except ImportError:
+        return False
+    for name in ("load_into", "load", "decode_into"):
+        fn = getattr(storage, name, None)
+        if fn is not None:
+            try:
+                fn(params, blob)
+                return True
+            except (ValueError, TypeError, KeyError):
+                return False
+    return False
+
+
+def _board_choices(board, params):
+    """IMU type, receiver protocol and motor protocol from the parameters, where the rows exist."""
+    for attr, name in (("imu_type", "imu_type"), ("rx_type", "rx_provider"), ("motor_protocol", "motor_protocol")):
+        try:
+            setattr(board, attr, params.get(name))
+        except KeyError:
+            pass
+
+
+def make_board(imu="mpu6050", rx="crsf", motors="dshot600", **kw):
+    from hoverfly.boards.rp2.board import Rp2Board
+
+    return Rp2Board(imu, rx, motors, **kw)
+
+
+def main(board=None, params=None, passes=-1, on_pass=None, overrides=()):
+    """Boot and fly: returns (flight, stats) when `passes` ran out (tests) or the loop stopped."""
+    from hoverfly.core.flight import Flight
+    from hoverfly.core.params import Params
+
+    chosen = board is not None  # a board built by the caller keeps its own IMU/receiver/motor choice
+    if board is None:
+        board = make_board()
+    if params is None:
+        params = Params()
+        load_params(board, params)
+    for name, value in overrides:
+        err = params.set(name, value)
+        if err:
+            print("hoverfly: parameter %s" % err)
+    if not chosen:
+        _board_choices(board, params)
+    board.setup(params)
+    flight = Flight(board, params)
+    board.flight = flight
+    configure = getattr(board, "configure_outputs", None)
+    if configure is not None:
+        configure(params, flight.motor_count, 0)
+    stats = LoopStats()
+    try:
+        run(board, flight, stats, passes, on_pass)
+    except KeyboardInterrupt:
+        board.stop_motors()
+        print("hoverfly: stopped")
+    except Exception as exc:  # SAFETY: whatever failed, the motors stop before anything else
+        board.stop_motors()
+        print(board.status_line())
+        print_exception(exc)
+    print(stats.line())
+    return flight, stats
+
+
+def run(board, flight, stats, passes=-1, on_pass=None):
+    """The loop: one flight pass per period on the tick clock; GC only in the slack."""
+    now = board.now_us()
+    flight.start(now)
+    period = 1000000 // flight.loop_hz
+    next_us = ticks_add(now, period)
+    mem_free = getattr(gc, "mem_free", None)
+    collect = gc.collect
+    free_min = 0
+    if mem_free is not None:
+        collect()
+        free_min = mem_free() // GC_FREE_FRACTION
+    step = flight.step
+    gc_cost_us = GC_GUESS_US
+    while passes != 0:
+        if passes > 0:
+            passes -= 1
+        start = board.now_us()
+        late = ticks_diff(start, ticks_add(next_us, -period))
+        if late < 0:
+            late = -late
+        if late > stats.jitter_max_us:
+            stats.jitter_max_us = late
+        step(start)
+        end = board.now_us()
+        took = ticks_diff(end, start)
+        stats.passes += 1
+        stats.pass_us = took
+        if took > stats.pass_max_us:
+            stats.pass_max_us = took
+        if on_pass is not None:
+            on_pass(flight)
+        # GC in the slack: only if it fits before the next pass, and only when needed.
+        left = ticks_diff(next_us, board.now_us())
+        if mem_free is not None and mem_free() < free_min:
+            if left > gc_cost_us:
+                t0 = board.now_us()
+                collect()
+                g = ticks_diff(board.now_us(), t0)
+                gc_cost_us = g
+                free_min = mem_free() // GC_FREE_FRACTION
+                stats.gc_runs += 1
+                if g > stats.gc_max_us:
+                    stats.gc_max_us = g
+            else:
+                stats.gc_skipped += 1
+        board.wait_until(next_us)
+        next_us = ticks_add(next_us, period)
+        if ticks_diff(board.now_us(), next_us) > 0:
+            # A pass ran over a whole period: restart the schedule from now, no catch-up burst.
+            stats.overruns += 1
+            next_us = ticks_add(board.now_us(), period)
+    return stats

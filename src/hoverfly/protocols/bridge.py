@@ -1,0 +1,241 @@
+"""Lockstep firmware bridge codec: the simulator and a flight firmware in another process.
+
+Takes and gives the byte frames both ends of the bridge exchange once per simulated step
+over any byte stream (stdin/stdout pipes to a MicroPython or CPython process, or USB
+serial to a real Pico for hardware-in-the-loop). The simulator (sim/bridge.py) sends the
+step's IMU sample, the receiver's bytes and the battery; the firmware
+(boards/bridge_fw.py) runs one flight pass and answers with the motor outputs, the LED,
+status flags and the events recorded since the last answer. Portable: both ends use it.
+
+Frame: `B5 kind len_lo len_hi payload... crc`; len is the payload length (0..1024),
+the CRC is CRC-8/DVB-S2 (the CRSF polynomial 0xD5) over kind, both length bytes and the
+payload. All fields little-endian. `BridgeDecoder.feed` takes any chunking, resyncs on
+garbage and counts (frames, crc_errors, length_errors, resyncs); it never raises.
+
+Kinds and payloads:
+- BOOT  host->fw  u32 sim_us: build the flight with the parameters sent so far and start it.
+- PARAMS host->fw text `name=value` lines; the firmware answers ACK with "" or the refusal.
+- STEP  host->fw  STEP_FMT (sim_us, flags, gyro xyz rad/s, accel xyz m/s², attitude
+  quaternion w x y z of an IMU's own fusion, battery V, A) then the receiver's bytes.
+- OUT   fw->host  OUT_HEAD_FMT (flags, motors n, servos m, firmware pass µs), n + m f32
+  (motor_out, servo_norm), 4 f32 attitude quaternion, u8 k, k events EVENT_FMT.
+- QUIT  host->fw  end; the firmware answers ACK and exits.
+- ACK   fw->host  text ("" = ok).
+- ERROR fw->host  text: the firmware failed (its exception, one line).
+"""
+
+from struct import pack_into
+
+from hoverfly.compat import const
+from hoverfly.protocols.crc import CRC8_DVB_S2_TABLE
+
+SYNC = const(0xB5)
+HEADER = const(4)  # sync, kind, len_lo, len_hi
+OVERHEAD = const(5)  # header + crc
+MAX_PAYLOAD = const(1024)
+
+BOOT = const(0x42)  # 'B'
+PARAMS = const(0x50)  # 'P'
+STEP = const(0x53)  # 'S'
+OUT = const(0x4D)  # 'M'
+QUIT = const(0x51)  # 'Q'
+ACK = const(0x41)  # 'A'
+ERROR = const(0x45)  # 'E'
+KINDS = (BOOT, PARAMS, STEP, OUT, QUIT, ACK, ERROR)
+
+# STEP flags
+STEP_IMU_FRESH = const(0x01)  # a new IMU sample is in this step
+STEP_FMT = "<IB6f4f2f"
+STEP_SIZE = const(53)  # struct.calcsize(STEP_FMT); receiver bytes follow
+
+# OUT flags
+OUT_ARMED = const(0x01)
+OUT_LED = const(0x02)
+OUT_IMU_OK = const(0x04)
+OUT_RX_OK = const(0x08)
+OUT_CALIBRATED = const(0x10)
+OUT_HEAD_FMT = "<BBBH"
+OUT_HEAD_SIZE = const(5)
+EVENT_FMT = "<iBi"  # time (µs since boot, sim clock), event code, detail
+EVENT_SIZE = const(9)
+MAX_EVENTS = const(32)  # per OUT frame; more wait for the next step
+
+_CRC = CRC8_DVB_S2_TABLE
+
+
+def crc8(buf, start, end):
+    """CRC-8/DVB-S2 of buf[start:end] (table driven, allocates nothing)."""
+    t = _CRC
+    c = 0
+    for i in range(start, end):
+        c = t[c ^ buf[i]]
+    return c
+
+
+def finish(buf, kind, payload_len):
+    """Write the header and CRC around a payload already at buf[4:4 + payload_len]; total length.
+
+    A payload longer than MAX_PAYLOAD (or a buffer too short) is a programming error: ValueError.
+    """
+    if payload_len < 0 or payload_len > MAX_PAYLOAD or len(buf) < payload_len + OVERHEAD:
+        raise ValueError("bridge payload of %d bytes does not fit" % payload_len)
+    buf[0] = SYNC
+    buf[1] = kind
+    buf[2] = payload_len & 0xFF
+    buf[3] = payload_len >> 8
+    end = HEADER + payload_len
+    buf[end] = crc8(buf, 1, end)
+    return end + 1
+
+
+def encode(buf, kind, payload=b""):
+    """Copy `payload` (bytes-like) into a frame in buf; total length (configuration messages)."""
+    n = len(payload)
+    if n > MAX_PAYLOAD or len(buf) < n + OVERHEAD:
+        raise ValueError("bridge payload of %d bytes does not fit" % n)
+    for i in range(n):
+        buf[HEADER + i] = payload[i]
+    return finish(buf, kind, n)
+
+
+def frame(kind, payload=b""):
+    """A new frame as bytes (tests, configuration messages)."""
+    buf = bytearray(len(payload) + OVERHEAD)
+    encode(buf, kind, payload)
+    return bytes(buf)
+
+
+def put_event(buf, p, t_us, event, detail):
+    """One event record at buf[p]; detail is clamped to the signed 32-bit range."""
+    if detail > 0x7FFFFFFF:
+        detail = 0x7FFFFFFF
+    elif detail < -0x80000000:
+        detail = -0x80000000
+    if t_us > 0x7FFFFFFF:
+        t_us = 0x7FFFFFFF
+    elif t_us < -0x80000000:
+        t_us = -0x80000000
+    pack_into(EVENT_FMT, buf, p, t_us, event & 0xFF, detail)
+    return p + EVENT_SIZE
+
+
+_HUNT = const(0)
+_KIND = const(1)
+_LEN_LO = const(2)
+_LEN_HI = const(3)
+_BODY = const(4)
+
+
+class BridgeDecoder:
+    """Streaming frame decoder: feed bytes, then take each complete frame with `pop()`.
+
+    Complete good frames wait in a small queue (`depth`, oldest dropped and counted in
+    `overruns` when it is full); `pop()` returns the kind (-1 when none is waiting) and
+    leaves the payload in `payload[0:length]`.
+    """
+
+    def __init__(self, depth=4):
+        self.depth = depth
+        self.frames = 0
+        self.crc_errors = 0
+        self.length_errors = 0
+        self.resyncs = 0
+        self.overruns = 0
+        self.bytes = 0
+        self.payload = bytearray(MAX_PAYLOAD)
+        self.length = 0
+        self._q = [bytearray(MAX_PAYLOAD + OVERHEAD) for _ in range(depth)]
+        self._qlen = [0] * depth
+        self._qkind = [0] * depth
+        self._head = 0
+        self._count = 0
+        self._state = _HUNT
+        self._kind = 0
+        self._want = 0
+        self._got = 0
+        self._crc = 0
+
+    def pending(self):
+        return self._count
+
+    def feed(self, data, n=-1):
+        """Take the first n bytes of data (all if n < 0); return how many good frames completed."""
+        size = len(data)
+        if n < 0 or n > size:
+            n = size
+        self.bytes += n
+        t = _CRC
+        done = 0
+        state = self._state
+        for i in range(n):
+            b = data[i]
+            if state == _HUNT:
+                if b == SYNC:
+                    state = _KIND
+                else:
+                    self.resyncs += 1
+            elif state == _KIND:
+                self._kind = b
+                self._crc = t[b]
+                state = _LEN_LO
+            elif state == _LEN_LO:
+                self._want = b
+                self._crc = t[self._crc ^ b]
+                state = _LEN_HI
+            elif state == _LEN_HI:
+                self._want |= b << 8
+                self._crc = t[self._crc ^ b]
+                if self._want > MAX_PAYLOAD:
+                    self.length_errors += 1
+                    state = _HUNT
+                else:
+                    self._got = 0
+                    state = _BODY
+            else:
+                if self._got < self._want:
+                    self._q[self._head][self._got] = b
+                    self._got += 1
+                    self._crc = t[self._crc ^ b]
+                else:
+                    state = _HUNT
+                    if b == self._crc:
+                        self._push()
+                        done += 1
+                    else:
+                        self.crc_errors += 1
+        self._state = state
+        return done
+
+    def _push(self):
+        self.frames += 1
+        h = self._head
+        self._qlen[h] = self._want
+        self._qkind[h] = self._kind
+        h += 1
+        if h >= self.depth:
+            h = 0
+        self._head = h
+        if self._count < self.depth:
+            self._count += 1
+        else:
+            self.overruns += 1
+
+    def pop(self):
+        """Kind of the oldest waiting frame (payload copied into `payload`), or -1."""
+        if self._count == 0:
+            return -1
+        i = self._head - self._count
+        if i < 0:
+            i += self.depth
+        self._count -= 1
+        n = self._qlen[i]
+        src = self._q[i]
+        dst = self.payload
+        for k in range(n):
+            dst[k] = src[k]
+        self.length = n
+        return self._qkind[i]
+
+    def text(self):
+        """The waiting payload as str (ACK, ERROR, PARAMS messages)."""
+        return bytes(self.payload[: self.length]).decode()
