@@ -34,6 +34,8 @@ class Controller:
         self._last_roll_sp = 0.0
         self._last_pitch_sp = 0.0
         self.tpa = 1.0
+        self._dt_s = 0.0
+        self._inv_dt = 0.0
 
     def configure(self, params, loop_hz):
         self.roll.configure(params, "roll", loop_hz, "pidsum_limit")
@@ -64,25 +66,35 @@ class Controller:
         """Fill torque_norm[0..2] (roll, pitch, yaw) and sp.rate_rad_s[0..2] (the rate setpoint used)."""
         rate = sp.rate_rad_s
         mode = sp.mode
-        inv_dt = 1.0 / dt_s
+        roll_sp = sp.roll_angle_rad
+        pitch_sp = sp.pitch_angle_rad
         if mode != MODE_ACRO:
-            level_roll = self._level_rate(sp.roll_angle_rad, attitude.roll_rad, self._last_roll_sp, inv_dt)
-            level_pitch = self._level_rate(sp.pitch_angle_rad, attitude.pitch_rad, self._last_pitch_sp, inv_dt)
+            # 1/dt once per new dt (the loop's dt repeats pass after pass).
+            if dt_s != self._dt_s:
+                self._dt_s = dt_s
+                self._inv_dt = 1.0 / dt_s
+            inv_dt = self._inv_dt
+            level_roll = self._level_rate(roll_sp, attitude.roll_rad, self._last_roll_sp, inv_dt)
+            level_pitch = self._level_rate(pitch_sp, attitude.pitch_rad, self._last_pitch_sp, inv_dt)
             if mode == MODE_ANGLE:
                 rate[0] = level_roll
                 rate[1] = level_pitch
             else:
                 # Horizon: full levelling at centre stick fading to pure rate at full deflection.
                 s = sp.stick_norm
-                defl = s[0] if s[0] >= 0 else -s[0]
-                d2 = s[1] if s[1] >= 0 else -s[1]
+                defl = s[0]
+                if defl < 0:
+                    defl = -defl
+                d2 = s[1]
+                if d2 < 0:
+                    d2 = -d2
                 if d2 > defl:
                     defl = d2
                 w = self.horizon_strength * (1.0 - defl)
                 rate[0] = rate[0] * (1.0 - w) + level_roll * w
                 rate[1] = rate[1] * (1.0 - w) + level_pitch * w
-        self._last_roll_sp = sp.roll_angle_rad
-        self._last_pitch_sp = sp.pitch_angle_rad
+        self._last_roll_sp = roll_sp
+        self._last_pitch_sp = pitch_sp
         # TPA: cut gain above the breakpoint, linearly to tpa_rate at full throttle.
         thr = sp.throttle_norm
         tpa = 1.0

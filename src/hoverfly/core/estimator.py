@@ -119,11 +119,13 @@ class Attitude:
 
     def set_from_quaternion(self):
         q = self.q
-        w = q[0]
-        x = q[1]
-        y = q[2]
-        z = q[3]
-        self.roll_rad = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
+        self.set_from(q[0], q[1], q[2], q[3])
+
+    def set_from(self, w, x, y, z):
+        """Euler angles and tilt from the quaternion's components (already stored in `q`)."""
+        # 1 - 2(x² + y²) is both roll's denominator and the tilt cosine: worked out once.
+        c = 1.0 - 2.0 * (x * x + y * y)
+        self.roll_rad = math.atan2(2.0 * (w * x + y * z), c)
         s = 2.0 * (w * y - z * x)
         if s > 1.0:
             s = 1.0
@@ -131,7 +133,7 @@ class Attitude:
             s = -1.0
         self.pitch_rad = math.asin(s)
         self.yaw_rad = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
-        self.cos_tilt = 1.0 - 2.0 * (x * x + y * y)
+        self.cos_tilt = c
 
 
 class Mahony:
@@ -148,6 +150,8 @@ class Mahony:
         self.kp = 0.25
         self.ki = 0.01
         self.boost = 10.0
+        # True while bias_rad_s holds zeros (no bias integral yet): the pass then skips reading it.
+        self._bias_zero = True
 
     def configure(self, params):
         self.kp = params.get("imu_dcm_kp") * 1e-4
@@ -161,6 +165,7 @@ class Mahony:
         q[3] = 0.0
         for i in range(3):
             self.bias_rad_s[i] = 0.0
+        self._bias_zero = True
         attitude.set_from_quaternion()
 
     def level_from_accel(self, accel_m_s2, attitude):
@@ -194,16 +199,21 @@ class Mahony:
         ay = accel_m_s2[1]
         az = accel_m_s2[2]
         norm = math.sqrt(ax * ax + ay * ay + az * az)
-        kp = self.kp
-        if not armed:
-            kp *= self.boost
+        trust = 0.0
         if norm > 0.1:
             # A multirotor's accelerometer sees thrust, not gravity, while it manoeuvres: trust it
             # fully within 5 % of 1 g, not at all beyond 10 % (Betaflight ignores it beyond 10 %).
             dev = norm / _G - 1.0
             if dev < 0:
                 dev = -dev
-            trust = 1.0 if dev < 0.05 else (0.0 if dev > 0.1 else (0.1 - dev) * 20.0)
+            if dev < 0.05:
+                trust = 1.0
+            elif dev <= 0.1:
+                trust = (0.1 - dev) * 20.0
+        if trust != 0.0:
+            kp = self.kp
+            if not armed:
+                kp *= self.boost
             inv = -1.0 / norm  # specific force points up: gravity's direction is its negative
             ax *= inv
             ay *= inv
@@ -212,19 +222,32 @@ class Mahony:
             vx = 2.0 * (x * z - w * y)
             vy = 2.0 * (w * x + y * z)
             vz = w * w - x * x - y * y + z * z
-            # Error: rotation that takes the estimate onto the measurement.
-            ex = (ay * vz - az * vy) * trust
-            ey = (az * vx - ax * vz) * trust
-            ez = (ax * vy - ay * vx) * trust
-            b = self.bias_rad_s
+            # Error: rotation that takes the estimate onto the measurement (x 1.0 is exact: skipped).
+            ex = ay * vz - az * vy
+            ey = az * vx - ax * vz
+            ez = ax * vy - ay * vx
+            if trust != 1.0:
+                ex *= trust
+                ey *= trust
+                ez *= trust
             if self.ki > 0:
-                b[0] -= self.ki * ex * dt_s
-                b[1] -= self.ki * ey * dt_s
-                b[2] -= self.ki * ez * dt_s
-            gx += kp * ex - b[0]
-            gy += kp * ey - b[1]
-            gz += kp * ez - b[2]
-        else:
+                b = self.bias_rad_s
+                ki = self.ki
+                b[0] -= ki * ex * dt_s
+                b[1] -= ki * ey * dt_s
+                b[2] -= ki * ez * dt_s
+                self._bias_zero = False
+            if self._bias_zero:
+                gx += kp * ex
+                gy += kp * ey
+                gz += kp * ez
+            else:
+                b = self.bias_rad_s
+                gx += kp * ex - b[0]
+                gy += kp * ey - b[1]
+                gz += kp * ez - b[2]
+        elif not self._bias_zero:
+            # No usable gravity (free fall, impact, or more than 10 % off 1 g): gyro only.
             b = self.bias_rad_s
             gx -= b[0]
             gy -= b[1]

@@ -36,7 +36,8 @@ class Pt1:
         self.y = value
 
     def update(self, x):
-        y = self.y + self.k * (x - self.y)
+        y = self.y
+        y = y + self.k * (x - y)
         self.y = y
         return y
 
@@ -66,9 +67,11 @@ class Pt2:
 
     def update(self, x):
         k = self.k
-        s1 = self.s1 + k * (x - self.s1)
+        s1 = self.s1
+        s1 = s1 + k * (x - s1)
         self.s1 = s1
-        y = self.y + k * (s1 - self.y)
+        y = self.y
+        y = y + k * (s1 - y)
         self.y = y
         return y
 
@@ -193,3 +196,112 @@ class AlphaBeta:
         self.v += self.beta * r / dt
         self.x = x
         return x
+
+
+class GyroFilter:
+    """Step 1 of the pass for the gyro: per axis low-pass 1 (type by parameter), low-pass 2 (PT1), notch.
+
+    `update(raw, bias, out)` takes the aligned gyro and the calibration bias (rad/s, arrays of
+    three) and writes the filtered rate. The default chain (one PT1, nothing else) runs as one
+    straight-line pass over the three axes, on the same Pt1 objects and with the same arithmetic
+    as the general chain: the numbers are the same, only calls and lookups are saved.
+    """
+
+    def __init__(self):
+        self.lpf1 = (LowPass(), LowPass(), LowPass())
+        self.lpf2 = (Pt1(), Pt1(), Pt1())
+        self.notch = (Biquad(), Biquad(), Biquad())
+        self.notch_on = False
+        self.lpf2_on = False
+        self._pt1_only = False
+
+    def configure(self, params, loop_hz):
+        kind = params.get("gyro_lpf1_type")
+        for i in range(3):
+            self.lpf1[i].configure(kind, params.get("gyro_lpf1_hz"), loop_hz)
+            self.lpf2[i].configure(params.get("gyro_lpf2_hz"), loop_hz)
+            self.notch[i].configure_notch(params.get("gyro_notch1_hz"), params.get("gyro_notch1_cut"), loop_hz)
+        self.notch_on = params.get("gyro_notch1_hz") > 0 and params.get("gyro_notch1_cut") > 0
+        self.lpf2_on = 0 < params.get("gyro_lpf2_hz") < loop_hz // 2
+        self._pt1_only = self.lpf1[0]._active is self.lpf1[0]._pt1 and not self.notch_on and not self.lpf2_on
+
+    def update(self, raw, bias, out):
+        if self._pt1_only:
+            lpf1 = self.lpf1
+            f = lpf1[0]._pt1
+            x = raw[0] - bias[0]
+            y = f.y
+            y = y + f.k * (x - y)
+            f.y = y
+            out[0] = y
+            f = lpf1[1]._pt1
+            x = raw[1] - bias[1]
+            y = f.y
+            y = y + f.k * (x - y)
+            f.y = y
+            out[1] = y
+            f = lpf1[2]._pt1
+            x = raw[2] - bias[2]
+            y = f.y
+            y = y + f.k * (x - y)
+            f.y = y
+            out[2] = y
+            return
+        lpf1 = self.lpf1
+        lpf2 = self.lpf2
+        if self.notch_on:  # the full chain
+            notch = self.notch
+            for i in range(3):
+                out[i] = notch[i].update(lpf2[i].update(lpf1[i].update(raw[i] - bias[i])))
+        elif self.lpf2_on:
+            for i in range(3):
+                out[i] = lpf2[i].update(lpf1[i].update(raw[i] - bias[i]))
+        else:
+            for i in range(3):
+                out[i] = lpf1[i].update(raw[i] - bias[i])
+
+
+class AccelFilter:
+    """Step 1 of the pass for the accelerometer: PT2 per axis at acc_lpf_hz (m/s² in, m/s² out).
+
+    Starts at rest, level (0, 0, -1 g). The three PT2s run inline, same arithmetic as Pt2.update.
+    """
+
+    def __init__(self):
+        self.f = (Pt2(), Pt2(), Pt2())
+
+    def configure(self, params, loop_hz):
+        for f in self.f:
+            f.configure(params.get("acc_lpf_hz"), loop_hz)
+            f.reset(0.0)
+        self.f[2].reset(-9.80665)
+
+    def update(self, raw, out):
+        filters = self.f
+        f = filters[0]
+        k = f.k
+        s1 = f.s1
+        s1 = s1 + k * (raw[0] - s1)
+        f.s1 = s1
+        y = f.y
+        y = y + k * (s1 - y)
+        f.y = y
+        out[0] = y
+        f = filters[1]
+        k = f.k
+        s1 = f.s1
+        s1 = s1 + k * (raw[1] - s1)
+        f.s1 = s1
+        y = f.y
+        y = y + k * (s1 - y)
+        f.y = y
+        out[1] = y
+        f = filters[2]
+        k = f.k
+        s1 = f.s1
+        s1 = s1 + k * (raw[2] - s1)
+        f.s1 = s1
+        y = f.y
+        y = y + k * (s1 - y)
+        f.y = y
+        out[2] = y

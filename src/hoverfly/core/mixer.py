@@ -73,6 +73,9 @@ class Mixer:
         self.pitch_w = array("f", [0.0] * MAX_MOTORS)
         self.yaw_w = array("f", [0.0] * MAX_MOTORS)
         self._mix = array("f", [0.0] * MAX_MOTORS)
+        # The weights as one tuple of floats per motor (float32 values, as the arrays hold them):
+        # reading an array element boxes a new float on MicroPython, a tuple item does not.
+        self._rows = ((0.0, 0.0, 0.0),) * MAX_MOTORS
         self.saturated = False
         self.airmode = True
         self.servo_yaw = False
@@ -92,6 +95,10 @@ class Mixer:
                 self.roll_w[i] = 0.0
                 self.pitch_w[i] = 0.0
                 self.yaw_w[i] = 0.0
+        rows = []
+        for i in range(self.n):
+            rows.append((self.roll_w[i], self.pitch_w[i], self.yaw_w[i]))
+        self._rows = tuple(rows)
         self.servo_yaw = frame in SERVO_YAW
         self.airmode = bool(params.get("airmode"))
 
@@ -100,20 +107,19 @@ class Mixer:
         r = torque_norm[0]
         p = torque_norm[1]
         y = torque_norm[2]
-        rw = self.roll_w
-        pw = self.pitch_w
-        yw = self.yaw_w
         mix = self._mix
-        n = self.n
         lo = 1e9
         hi = -1e9
-        for i in range(n):
-            m = r * rw[i] + p * pw[i] + y * yw[i]
+        i = 0
+        for row in self._rows:
+            m = r * row[0] + p * row[1] + y * row[2]
             mix[i] = m
+            i += 1
             if m < lo:
                 lo = m
             if m > hi:
                 hi = m
+        n = i
         span = hi - lo
         saturated = False
         if span > 1.0:

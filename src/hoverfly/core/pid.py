@@ -45,6 +45,7 @@ class AxisPid:
         self.out = 0.0
         self._last_gyro = 0.0
         self._last_setpoint = 0.0
+        self._prepare()
 
     def configure(self, params, axis, loop_hz, sum_limit_name):
         self.kp = params.get("p_" + axis) * _P_SCALE
@@ -59,6 +60,15 @@ class AxisPid:
         relax = params.get("iterm_relax")
         self.relax = relax == "rpy" or (relax == "rp" and axis != "yaw")
         self.relax_filter.configure(params.get("iterm_relax_hz"), loop_hz)
+        self._prepare()
+
+    def _prepare(self):
+        # Pass-invariant products and the filter's bound update, worked out once: on MicroPython
+        # every float result is a heap object and every attribute lookup a hash probe.
+        self._neg_kd = -self.kd
+        self._d_update = self.dterm_filter.update
+        self._dt_s = 0.0
+        self._inv_dt = 0.0
 
     def reset(self):
         self.i = 0.0
@@ -73,20 +83,28 @@ class AxisPid:
         err = setpoint_rad_s - gyro_rad_s
         self.error_rad_s = err
         p = self.kp * err
-        if self.tpa_on_p:
+        if self.tpa_on_p and tpa != 1.0:
             p *= tpa
         # Anti-windup: stop integrating toward the side the mixer can no longer deliver.
-        i = self.i
         if i_active:
+            i = self.i
             step = self.ki * err * dt_s
             if self.relax:
                 # I-term relax: while the stick moves, the error is the response still coming,
                 # not a steady offset; integrating it now only comes back as overshoot.
-                hp = setpoint_rad_s - self.relax_filter.update(setpoint_rad_s)
+                # (The relax Pt1 inlined: y += k * (x - y).)
+                rf = self.relax_filter
+                y = rf.y
+                y = y + rf.k * (setpoint_rad_s - y)
+                rf.y = y
+                hp = setpoint_rad_s - y
                 if hp < 0:
                     hp = -hp
                 factor = 1.0 - hp / _RELAX_THRESHOLD_RAD_S
-                step *= factor if factor > 0.0 else 0.0
+                if factor <= 0.0:
+                    step = 0.0
+                elif factor != 1.0:
+                    step *= factor
             if not saturated or (step > 0) != (self.out > 0):
                 i += step
             lim = self.i_limit
@@ -94,14 +112,28 @@ class AxisPid:
                 i = lim
             elif i < -lim:
                 i = -lim
+            self.i = i
         else:
             i = 0.0
-        self.i = i
-        inv_dt = 1.0 / dt_s
+            self.i = i
+        # 1/dt once per new dt (the loop's dt repeats pass after pass).
+        if dt_s != self._dt_s:
+            self._dt_s = dt_s
+            self._inv_dt = 1.0 / dt_s
+        inv_dt = self._inv_dt
         # D on measurement: a setpoint step kicks nothing, a gyro spike is damped.
-        d = -self.kd * tpa * self.dterm_filter.update((gyro_rad_s - self._last_gyro) * inv_dt)
+        nkd = self._neg_kd
+        if nkd != 0.0:
+            if tpa != 1.0:
+                nkd *= tpa
+            d = nkd * self._d_update((gyro_rad_s - self._last_gyro) * inv_dt)
+        else:  # no D gain: keep the filter running so a live D change starts from its state
+            self._d_update((gyro_rad_s - self._last_gyro) * inv_dt)
+            d = 0.0
         self._last_gyro = gyro_rad_s
-        f = self.kf * (setpoint_rad_s - self._last_setpoint) * inv_dt + self.k_static * setpoint_rad_s
+        f = self.kf * (setpoint_rad_s - self._last_setpoint) * inv_dt
+        if self.k_static != 0.0:
+            f += self.k_static * setpoint_rad_s
         self._last_setpoint = setpoint_rad_s
         self.p = p
         self.d = d

@@ -15,6 +15,7 @@ class ActualRates:
         self.centre_rad_s = 70.0 * _DEG
         self.travel_rad_s = 600.0 * _DEG
         self.expo = 0.0
+        self._one_minus_expo = 1.0
 
     def configure(self, rc_rate, srate, expo_pct):
         centre = rc_rate * 10.0
@@ -25,6 +26,7 @@ class ActualRates:
         self.centre_rad_s = centre * _DEG
         self.travel_rad_s = travel * _DEG
         self.expo = expo_pct * 0.01
+        self._one_minus_expo = 1.0 - self.expo
 
     def max_rate_rad_s(self):
         return self.centre_rad_s + self.travel_rad_s
@@ -34,8 +36,11 @@ class ActualRates:
         if a > 1.0:
             a = 1.0
         e = self.expo
-        a2 = a * a
-        curve = a * (a2 * a2 * a * e + a * (1.0 - e))
+        if e == 0.0:
+            curve = a * a  # a * (0 + a * 1): exactly the general form's value
+        else:
+            a2 = a * a
+            curve = a * (a2 * a2 * a * e + a * self._one_minus_expo)
         r = a * self.centre_rad_s + curve * self.travel_rad_s
         return r if stick_norm >= 0 else -r
 
