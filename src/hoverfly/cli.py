@@ -16,6 +16,12 @@ COMMAND_MODULES = (
     "hoverfly.cli_fly",
     "hoverfly.cli_rx",
     "hoverfly.cli_esc",
+    "hoverfly.cli_sim",
+    "hoverfly.cli_params",
+    "hoverfly.cli_connect",
+    "hoverfly.cli_maint",
+    "hoverfly.cli_log",
+    "hoverfly.cli_flash",
 )
 
 

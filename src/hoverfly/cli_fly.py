@@ -3,6 +3,7 @@
 import json
 import sys
 
+from hoverfly.core.output import PROTOCOLS
 from hoverfly.errors import UserError
 
 
@@ -21,7 +22,9 @@ def run_fly(args):
 
     if args.seed < 0:
         raise UserError("--seed must be 0 or more")
-    result = fly(args.scenario, args.airframe, args.seed, _parse_set(args.set), args.duration, args.realtime)
+    result = fly(args.scenario, args.airframe, args.seed, _parse_set(args.set), args.duration, args.realtime,
+                 firmware=args.firmware, micropython=args.micropython, rx=args.rx,
+                 esc=args.esc, log_path=args.log)
     if args.json:
         json.dump(result, sys.stdout)
         sys.stdout.write("\n")
@@ -50,6 +53,11 @@ def summary(r):
     ev = ", ".join("%s %s@%.2fs" % (e["event"], e["detail"], e["t_s"]) for e in r["events"]
                    if e["event"] not in ("mode", "airmode"))
     lines.append("  events: " + ev)
+    o = r.get("outputs")
+    if o:
+        lines.append("  outputs: %s ESCs, %d frames read, %d rejected, output failsafe tripped %d time(s)%s"
+                     % (o["esc"], o["frames"], o["errors"], o["failsafe_trips"],
+                        ", RPM " + "/".join(str(x) for x in o["rpm"]) if o.get("rpm") else ""))
     lp = r["loop"]
     lines.append("  flight loop: %.1f us mean, %.0f us max, %d overruns" % (lp["mean_us"], lp["max_us"],
                                                                             lp["overruns"]))
@@ -65,4 +73,14 @@ def register(sub):
     p.add_argument("--set", action="append", metavar="NAME=VALUE", help="override a parameter for this flight")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--realtime", action="store_true", help="pace the flight to the wall clock")
+    p.add_argument("--firmware", choices=("cpython", "micropython"), default="cpython",
+                   help="where the flight firmware runs: in this process, or under MicroPython over the bridge")
+    p.add_argument("--micropython", metavar="PATH", default=None,
+                   help="the MicroPython VM for --firmware micropython (default: micropython on PATH)")
+    p.add_argument("--rx", choices=("crsf", "sbus", "ibus", "ppm", "pwm"), default="crsf",
+                   help="receiver protocol on the simulated wire (default crsf: ExpressLRS 250 Hz)")
+    p.add_argument("--esc", choices=PROTOCOLS, default="dshot600",
+                   help="ESC protocol on the simulated motor wires (default dshot600)")
+    p.add_argument("--log", metavar="PATH.ulg", default=None,
+                   help="write a flight log (PX4 ULog) at blackbox_rate_hz; see `hoverfly log`")
     p.set_defaults(func=run_fly)

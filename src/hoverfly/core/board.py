@@ -20,13 +20,40 @@ class Board:
         """An IMU's own fusion (w, x, y, z; body to NED), for estimator = external. False if none."""
         return False
 
-    def read_rc(self, channels_us):
-        """Write receiver channels in µs; True when a new valid frame arrived since the last call."""
-        return False
+    def read_rx(self, buf):
+        """Receiver UART (CRSF, SBUS, iBUS): copy up to len(buf) bytes received since the last
+        call into buf, oldest first; return how many (0 if none). Allocates nothing. The line
+        settings (baud, parity, inversion) are the board's business, from `rx_provider`."""
+        return 0
+
+    def read_rx_edges(self, edges):
+        """Receiver pins (PPM, PWM): pulse edges captured since the last call, oldest first, as
+        pairs edges[2k] = channel_index * 2 + level (1 rising, 0 falling; PPM: channel 0) and
+        edges[2k + 1] = compat ticks µs of the edge; at most len(edges) // 2 of them. Returns
+        the number of edges written (0 if none)."""
+        return 0
+
+    def write_rx(self, data, n):
+        """Send the first n bytes of data to the receiver on the same UART (CRSF telemetry).
+        May drop them when the transmit buffer is full; never blocks the loop."""
 
     def write_motors(self, motor_out, count):
-        """Send motor commands: 0 = stop, otherwise idle..1 (the board's output codec encodes them)."""
+        """Send motor commands: 0 = stop, otherwise idle..1 (the board's output codec encodes them).
+
+        The board owns its codec (core.output.OutputEncoder: protocol, motor order, DShot
+        commands) and its output timer, which calls the encoder's `tick(now_us)` whatever the
+        pass does: a pass that stops calling this for `output_fs_ms` finds every output
+        disarmed (the output failsafe)."""
         raise NotImplementedError
+
+    def configure_outputs(self, params, motor_count, servo_count):
+        """Boot (and while disarmed): read the output parameters into the board's output codec."""
+
+    def read_motor_telemetry(self, codes, count):
+        """Bidirectional DShot: the ESCs' latest replies as 21-bit GCR line codes (start bit
+        included), codes[m] for motor m (motor order, not output order). True when new replies
+        arrived since the last call; False (codes untouched) otherwise or without bidir."""
+        return False
 
     def write_servos(self, servo_norm, count):
         """Servo positions in -1..1."""
@@ -36,3 +63,28 @@ class Board:
 
     def set_led(self, on):
         """Status LED."""
+
+    # --- configuration links: parameter storage and serial ports (core/storage.py, core/links.py)
+    def load_storage(self):
+        """The stored parameter image (bytes), or None when nothing was ever saved."""
+        return None
+
+    def save_storage(self, image):
+        """Write the whole parameter image in place (bytes the storage did not change stay as
+        they were, so a cut write damages one slot only); True when written."""
+        return False
+
+    def serial_read(self, port, buf):
+        """Copy bytes waiting on serial port `port` (SERIAL_CONFIG = CLI + MSP, SERIAL_MAINT =
+        maintenance protocol) into buf; return the count, 0 when none, -1 once when the peer went
+        away (the session on that port ends). Never blocks."""
+        return 0
+
+    def serial_write(self, port, data, n=-1):
+        """Queue the first n bytes (all if n < 0) of data for `port`; return how many were taken
+        (fewer when the port's buffer is full: the caller drops the rest). Never blocks."""
+        return 0
+
+
+SERIAL_CONFIG = 0
+SERIAL_MAINT = 1

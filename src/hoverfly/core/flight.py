@@ -5,15 +5,27 @@ due (receiver, arming, failsafe, battery, LED). Stages are built once; `configur
 reads the parameters into every stage (again whenever they change while disarmed).
 """
 
-import math
-
 from hoverfly.compat import ticks_diff
-from hoverfly.core.arming import Arming
+from hoverfly.core.arming import (
+    AUTOPILOT,
+    BATTERY_CRITICAL,
+    BIT_FAILED,
+    CRASH_DETECTED,
+    FAILSAFE,
+    MOTOR_TEST,
+    Arming,
+    session_flags,
+)
+from hoverfly.core.autopilot import AP_ENABLED, Autopilot
+from hoverfly.core.bit import BuiltInTest
 from hoverfly.core.control import MODE_ANGLE, Controller
 from hoverfly.core.estimator import BoardAlignment, ExternalAttitude, GyroCalibration, Mahony
 from hoverfly.core.events import (
+    DISARM_CRASH,
     DISARM_IMU,
+    DISARM_LOAD,
     EV_AIRMODE,
+    EV_CRASH,
     EV_GYRO_CALIBRATED,
     EV_IMU_FAULT,
     EV_MODE,
@@ -21,64 +33,17 @@ from hoverfly.core.events import (
     EV_RX_RESTORED,
     EventLog,
 )
-from hoverfly.core.failsafe import IDLE, PROC_DROP, PROC_GLIDE, STAGE2, Failsafe
-from hoverfly.core.filters import Biquad, LowPass, Pt1, Pt2
+from hoverfly.core.failsafe import FAULT_NONE, IDLE, PROC_DROP, PROC_GLIDE, PROC_LAND, STAGE2, Failsafe, FaultWatch
+from hoverfly.core.filters import AccelFilter, GyroFilter
+from hoverfly.core.logger import Logger
 from hoverfly.core.mixer import Mixer
+from hoverfly.core.motortest import MotorTest
+from hoverfly.core.output import OutputStage
 from hoverfly.core.params import Params
 from hoverfly.core.rc import RcInput
+from hoverfly.core.receiver import Receiver
 from hoverfly.core.scheduler import Scheduler
 from hoverfly.core.signals import Signals
-
-
-class GyroFilter:
-    """Per-axis gyro chain: low-pass 1 (type by parameter), low-pass 2 (PT1), notch."""
-
-    def __init__(self):
-        self.lpf1 = (LowPass(), LowPass(), LowPass())
-        self.lpf2 = (Pt1(), Pt1(), Pt1())
-        self.notch = (Biquad(), Biquad(), Biquad())
-        self.notch_on = False
-        self.lpf2_on = False
-
-    def configure(self, params, loop_hz):
-        kind = params.get("gyro_lpf1_type")
-        for i in range(3):
-            self.lpf1[i].configure(kind, params.get("gyro_lpf1_hz"), loop_hz)
-            self.lpf2[i].configure(params.get("gyro_lpf2_hz"), loop_hz)
-            self.notch[i].configure_notch(params.get("gyro_notch1_hz"), params.get("gyro_notch1_cut"), loop_hz)
-        self.notch_on = params.get("gyro_notch1_hz") > 0 and params.get("gyro_notch1_cut") > 0
-        self.lpf2_on = 0 < params.get("gyro_lpf2_hz") < loop_hz // 2
-
-    def update(self, raw, bias, out):
-        lpf1 = self.lpf1
-        lpf2 = self.lpf2
-        if self.notch_on:  # the full chain
-            notch = self.notch
-            for i in range(3):
-                out[i] = notch[i].update(lpf2[i].update(lpf1[i].update(raw[i] - bias[i])))
-        elif self.lpf2_on:
-            for i in range(3):
-                out[i] = lpf2[i].update(lpf1[i].update(raw[i] - bias[i]))
-        else:
-            for i in range(3):
-                out[i] = lpf1[i].update(raw[i] - bias[i])
-
-
-class AccelFilter:
-    def __init__(self):
-        self.f = (Pt2(), Pt2(), Pt2())
-
-    def configure(self, params, loop_hz):
-        for f in self.f:
-            f.configure(params.get("acc_lpf_hz"), loop_hz)
-            f.reset(0.0)
-        self.f[2].reset(-9.80665)
-
-    def update(self, raw, out):
-        f = self.f
-        out[0] = f[0].update(raw[0])
-        out[1] = f[1].update(raw[1])
-        out[2] = f[2].update(raw[2])
 
 
 class Flight:
@@ -94,10 +59,24 @@ class Flight:
         self.mahony = Mahony()
         self.external = ExternalAttitude()
         self.rc = RcInput()
+        self.receiver = Receiver()
         self.controller = Controller()
         self.mixer = Mixer()
+        self.output = OutputStage()
         self.arming = Arming(self.events)
+        self.motor_test = MotorTest(self.arming)
         self.failsafe = Failsafe(self.events)
+        self.faults = FaultWatch()
+        self.autopilot = Autopilot(self.events)
+        self.autopilot.pilot_channels = self.signals.rc_channels_us
+        self.arming.gate = self.autopilot  # in autopilot mode the pilot's switch does not arm
+        self.bit = BuiltInTest()
+        self.config_session = 0  # 1 CLI, 2 MSP configurator, 4 maintenance: any set blocks arming
+        self._rc_frames_seen = 0
+        self._arming_us = 0
+        self._crash_latched = False
+        self._vbat_min_cell_v = 3.3
+        self.battery_cells = 0  # detected from the first voltage read (4.3 V per cell at most)
         self.scheduler = Scheduler()
         self.loop_hz = 1000
         self.motor_count = 4
@@ -124,6 +103,8 @@ class Flight:
         self.scheduler.add("arming", 100, self.task_arming)
         self.scheduler.add("battery", 50, self.task_battery)
         self.scheduler.add("led", 10, self.task_led)
+        self.logger = Logger(self)  # flight log: idle (1 Hz, no writes) until logger.open(sink)
+        self.scheduler.add("log", 1, self.logger.task)
 
     # ----------------------------------------------------------------- set-up
     def configure(self):
@@ -137,13 +118,25 @@ class Flight:
         self.mahony.configure(p)
         self._use_external = p.get("estimator") == "external"
         self.rc.configure(p, hz)
+        self.receiver.configure(p)
         self.controller.configure(p, hz)
         self.mixer.configure(p)
         self.motor_count = self.mixer.n
         self.arming.configure(p)
+        if p.get("arm_source") == "seed001":
+            # Seed 001: the arm channel above 1500 µs arms (the range rule, with no upper end).
+            self.rc._arm = (p.get("arm_ch"), 1501, 0x10000)
         self.failsafe.configure(p)
+        self.faults.configure(p)
+        self.autopilot.configure(p)
+        self._vbat_min_cell_v = p.get("vbat_min_cell")
+        self.logger.configure(p)
         self.idle = p.get("motor_idle_pct") * 0.01
         self.motor_max = p.get("motor_max_pct") * 0.01
+        servo_count = 1 if self.mixer.servo_yaw else 0
+        self.output.configure(p, self.motor_count)
+        self.motor_test.configure(p, self.motor_count)
+        self.board.configure_outputs(p, self.motor_count, servo_count)
         self._imu_stale_us = p.get("imu_stale_ms") * 1000
         self._rx_timeout_us = p.get("rx_timeout_ms") * 1000
         self._airmode_thr = p.get("airmode_thr_pct") * 0.01
@@ -155,6 +148,7 @@ class Flight:
         self._last_us = now_us
         self._imu_us = now_us
         self.last_frame_us = now_us
+        self.receiver.start(now_us)
         self.arming.boot_us = now_us
         self.calibration.reset()
         self.scheduler.start(now_us, self.loop_hz)
@@ -198,31 +192,40 @@ class Flight:
                                s.torque_norm)
         # 5. mixer
         self.mixer.update(sp.throttle_norm, s.torque_norm, self.airmode_active, s.motor_norm)
-        # 6. outputs
-        # SAFETY: last word on the motors, after every stage: no mode, scenario or protocol
-        # spins a disarmed motor.
+        # 6. outputs: idle..max while armed, a bench motor test while disarmed, then the board's codec
         out = s.motor_out
         n = self.motor_count
-        if armed:
-            idle = self.idle
-            span = self.motor_max - idle
-            for i in range(n):
-                out[i] = idle + span * s.motor_norm[i]
-        else:
+        output = self.output
+        output.update(s.motor_norm, armed, out)
+        test = self.motor_test
+        test.update(now_us, armed, self.rc.arm_switch, self.rx_ok, out)
+        # SAFETY: last word on the motors, after every stage: no mode, scenario or protocol
+        # spins a disarmed motor; only an active motor test (disarmed, props-off acknowledged,
+        # refreshed every second) may.
+        if not armed and not test.active:
             for i in range(n):
                 out[i] = 0.0
         board.write_motors(out, n)
         if self.mixer.servo_yaw:
-            s.servo_norm[0] = self.mixer.servo_norm[0] if armed else 0.0
+            output.servos(self.mixer.servo_norm, 1, armed, s.servo_norm)
             board.write_servos(s.servo_norm, 1)
+        if output.bidir and board.read_motor_telemetry(output.reply_codes, n):
+            output.decode_replies(n, s.motor_erpm, s.motor_rpm)
         self.scheduler.run(now_us)
 
     def command(self, sp):
-        """Who flies: the pilot, or the failsafe; and whether I-term and air mode may act."""
+        """Who flies: the pilot, the autopilot (seed 004) or the failsafe; and whether I-term and
+        air mode may act. sp arrives holding the pilot's smoothed sticks."""
         rc = self.rc
         mode = rc.mode
         fs = self.failsafe
+        ap = self.autopilot
+        now_us = self._last_us
+        if rc.frames != self._rc_frames_seen:  # a new frame from the pilot: the enabling procedure
+            self._rc_frames_seen = rc.frames
+            ap.on_pilot_frame(now_us, rc.arm_switch, self.arming.armed)
         if fs.state != IDLE:
+            # SAFETY: the failsafe outranks the pilot's stale sticks and the autopilot.
             mode = MODE_ANGLE
             sp.stick_norm[0] = 0.0
             sp.stick_norm[1] = 0.0
@@ -231,7 +234,11 @@ class Flight:
                 if fs.procedure == PROC_GLIDE or fs.procedure == PROC_DROP:
                     sp.throttle_norm = 0.0
                 else:
-                    sp.throttle_norm = fs.throttle_norm
+                    sp.throttle_norm = fs.land_throttle_norm
+                    if fs.procedure == PROC_LAND:
+                        fs.note_accel(self.signals.accel_raw_m_s2)  # every pass: a 1 ms spike counts
+            rc.fill_setpoint(sp)
+        elif ap.apply(now_us, sp, rc.stick_raw, rc.throttle_raw):
             rc.fill_setpoint(sp)
         if mode != self._mode:
             self._mode = mode
@@ -255,8 +262,10 @@ class Flight:
     # -------------------------------------------------------------- slow tasks
     def task_rx(self, now_us):
         s = self.signals
-        if self.board.read_rc(s.rc_channels_us):
+        rx = self.receiver
+        if rx.update(now_us, self.board):
             self.last_frame_us = now_us
+            rx.copy_channels(s.rc_channels_us)
             self.rc.new_frame(s.rc_channels_us)
             if not self.rx_ok:
                 self.rx_ok = True
@@ -266,24 +275,85 @@ class Flight:
         elif self.rx_ok and ticks_diff(now_us, self.last_frame_us) > self._rx_timeout_us:
             self.rx_ok = False
             self.events.record(self.last_frame_us, EV_RX_LOST, 0)
+        if rx.telemetry_due(now_us):
+            rx.send_telemetry(now_us, self.board, s, s.setpoint.mode, self.mixer.airmode, self.failsafe.state != IDLE,
+                              self.arming.armed, self.arming.flags)
 
     def task_arming(self, now_us):
+        """Faults, built-in test, arming reasons, autopilot timeout, failsafe stages (100 Hz)."""
         s = self.signals
-        imu_age = ticks_diff(now_us, self._imu_us)
-        imu_ok = imu_age <= self._imu_stale_us
+        rc = self.rc
+        arming = self.arming
+        fw = self.faults
+        ap = self.autopilot
+        fs = self.failsafe
+        dt_s = ticks_diff(now_us, self._arming_us) * 1e-6
+        self._arming_us = now_us
+        if dt_s < 0.0 or dt_s > 0.1:
+            dt_s = 0.01
+        armed = arming.armed
+        # IMU: no new samples for imu_stale_ms, or new samples frozen or saturated
+        imu_ok = ticks_diff(now_us, self._imu_us) <= self._imu_stale_us
+        fault = fw.check_imu(s.gyro_raw_rad_s, s.accel_raw_m_s2) if imu_ok else FAULT_NONE
+        if fault != FAULT_NONE:
+            imu_ok = False
         if self.imu_ok and not imu_ok:
-            self.events.record(now_us, EV_IMU_FAULT, 0)
-            self.arming.disarm(now_us, DISARM_IMU)
+            self.events.record(now_us, EV_IMU_FAULT, fault)
+            # SAFETY: no attitude without the IMU: nothing can fly or land it, so stop the motors.
+            arming.disarm(now_us, DISARM_IMU)
         self.imu_ok = imu_ok
-        self.arming.check(now_us, imu_ok, self.calibration.calibrated, self.rx_ok, self.rc.throttle_low(),
-                          s.attitude.cos_tilt, self.overloaded)
-        a = s.accel_raw_m_s2
-        accel_norm = math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
-        sticks_moved = (abs(self.rc.stick_raw[0]) > 0.3 or abs(self.rc.stick_raw[1]) > 0.3)
-        self.failsafe.update(now_us, not self.rx_ok, self.last_frame_us, self.arming.armed, sticks_moved,
-                             accel_norm, self.arming)
-        if self.params.changed != self._configured_at and not self.arming.armed:
+        # loop rate: a storm of overruns while armed disarms; any overrun blocks arming (LOAD)
+        sched = self.scheduler
+        if fw.check_load(now_us, sched.passes, sched.overruns, armed):
+            arming.disarm(now_us, DISARM_LOAD)
+        self.overloaded = fw.overloaded
+        # whose throttle counts: the autopilot's when it holds the privilege (the pilot's is its cap)
+        throttle_low = ap.throttle_low() if ap.state == AP_ENABLED else rc.throttle_low()
+        if fw.check_crash(now_us, arming.armed, throttle_low, s.attitude.cos_tilt, s.gyro_rad_s, s.accel_m_s2):
+            self.events.record(now_us, EV_CRASH, 0)
+            arming.disarm(now_us, DISARM_CRASH)
+            self._crash_latched = True
+        if self._crash_latched and not rc.arm_switch:
+            self._crash_latched = False
+        battery_ok = self._battery_ok(s.battery_v)
+        bit = self.bit
+        bit.update(imu_ok, self.rx_ok, not self.overloaded, battery_ok, self.calibration.calibrated)
+        more = session_flags(self.config_session)
+        test = getattr(self, "motor_test", None)
+        if test is not None and test.active:
+            more |= 1 << MOTOR_TEST
+        if not battery_ok:
+            more |= 1 << BATTERY_CRITICAL
+        if bit.blocks_arming:
+            more |= 1 << BIT_FAILED
+        if fs.state != IDLE:
+            more |= 1 << FAILSAFE
+        if self._crash_latched:
+            more |= 1 << CRASH_DETECTED
+        if ap.switch_on():
+            more |= 1 << AUTOPILOT
+        arming.check(now_us, imu_ok, self.calibration.calibrated, self.rx_ok, throttle_low, s.attitude.cos_tilt,
+                     self.overloaded, more)
+        ap.update(now_us, arming.armed)
+        fs.observe(dt_s, s.attitude.q, s.accel_m_s2, s.setpoint.throttle_norm, s.attitude.cos_tilt,
+                   arming.armed and self._throttle_was_up)
+        sticks_moved = (abs(rc.stick_raw[0]) > 0.3 or abs(rc.stick_raw[1]) > 0.3)
+        fs.update(now_us, not self.rx_ok, self.last_frame_us, arming.armed, sticks_moved, arming)
+        if self.params.changed != self._configured_at and not arming.armed:
             self.configure()
+
+    def _battery_ok(self, battery_v):
+        """False below vbat_min_cell per cell; True when off or not measured."""
+        if self._vbat_min_cell_v <= 0.0 or battery_v < 1.0:
+            return True
+        if self.battery_cells == 0:
+            self.battery_cells = int(battery_v / 4.3) + 1
+        return battery_v >= self._vbat_min_cell_v * self.battery_cells
+
+    def on_msp_rc(self, now_us, channels_us, count):
+        """MSP SET_RAW_RC from the companion computer (seed 004's autopilot source).
+        None when taken; otherwise the reason it was refused (it then changes nothing)."""
+        return self.autopilot.on_msp_rc(now_us, channels_us, count, self.arming)
 
     def task_battery(self, now_us):
         self.board.read_battery(self.signals)

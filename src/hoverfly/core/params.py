@@ -19,6 +19,7 @@ FILTER_TYPES = ("pt1", "pt2", "biquad")
 TPA_MODES = ("pd", "d")
 ESTIMATORS = ("mahony", "external")
 FAILSAFE_PROCEDURES = ("drop", "land", "glide")
+ARM_SOURCES = ("range", "seed001")
 
 # fmt: off
 #  name               default   min     max      unit           applies  help
@@ -115,12 +116,46 @@ PARAMS = (
     ("fs_procedure", "land", 0,      0,    FAILSAFE_PROCEDURES, LIVE, "stage 2: drop, land or glide"),
     ("fs_throttle", 1300, 1000,    2000,   "us",          LIVE,   "throttle while failsafe lands"),
     ("fs_land_max_ms",   20000, 1000,  120000,   "ms",          LIVE,   "failsafe landing disarms after this at the latest"),
+    ("fs_land_m_s",        1.0,  0.2,     5.0,   "m/s",         LIVE,   "failsafe landing: descent speed once a hover throttle is known"),
+    ("arm_source",     "range",    0,       0,   ARM_SOURCES,   LIVE,   "arm by the AUX range, or seed001: arm_ch above 1500 us"),
+    ("vbat_min_cell",      3.3,  0.0,     4.2,   "V",           LIVE,   "no arming below this per cell (cells auto-detected), 0 = off"),
+    ("crash_time_ms",     1000,    0,   10000,   "ms",          LIVE,   "armed, tipped over, still and throttle low this long = crash: disarm; 0 = off"),
     # --- receiver wire (protocol, link watch, telemetry)
+    ("rx_provider",     "crsf",    0,       0,   ("crsf", "sbus", "ibus", "ppm", "pwm"), REBOOT, "receiver protocol (Betaflight serialrx_provider; ppm/pwm: pin edges)"),
+    ("rx_pwm_channels",      6,    1,      16,   "ch",          REBOOT, "pwm receiver: channels captured, one pin each (FS-IA6: 6)"),
+    ("crsf_telemetry",       1,    0,       1,   "",            LIVE,   "CRSF: send battery, attitude and flight mode back to the receiver"),
+    ("rc_smooth_type",   "pt2",    0,       0,   ("pt2", "pt1", "alphabeta"), LIVE, "stick smoothing: PT2/PT1 at rc_smoothing_hz, or seed 001's alpha-beta"),
+    ("rc_ab_alpha",        0.1,  0.0,     1.0,   "",            LIVE,   "alpha-beta stick filter: position gain per pass (1 = no smoothing)"),
+    ("rc_ab_beta",       0.005,  0.0,     1.0,   "",            LIVE,   "alpha-beta stick filter: velocity gain per pass (0 = none)"),
+    ("thr_mode",         "raw",    0,       0,   ("raw", "bands"), LIVE, "throttle: raw stick percentage (seed 004) or seed 001's three bands"),
+    ("thr_descend_us",    1350, 1000,    2000,   "us",          LIVE,   "bands: throttle while the stick is below 1333 us (DESCEND)"),
+    ("thr_hover_us",      1500, 1000,    2000,   "us",          LIVE,   "bands: throttle while the stick is 1333..1665 us (HOVERING)"),
+    ("thr_climb_us",      1650, 1000,    2000,   "us",          LIVE,   "bands: throttle while the stick is 1666 us and up (CLIMB)"),
     # --- motor and servo outputs (protocol, output failsafe, motor test)
+    ("motor_protocol", "dshot600", 0,      0,    ("dshot150", "dshot300", "dshot600", "dshot1200", "oneshot125",
+                                                  "oneshot42", "multishot", "pwm"), REBOOT, "ESC protocol of the motor outputs"),
+    ("dshot_bidir",          0,    0,       1,   "",            REBOOT, "bidirectional DShot: ESCs answer each frame with eRPM"),
+    ("motor_poles",         14,    2,     255,   "",            LIVE,   "motor magnet poles: RPM = eRPM / (poles / 2)"),
+    ("motor_pwm_rate",     480,   50,   40000,   "Hz",          REBOOT, "PWM/OneShot/Multishot update rate"),
+    ("motor_order",          0,    0, 87654321,  "",            REBOOT, "output per motor as digits (2143: motor 1 on output 2), 0 = in order"),
+    ("motor_reversed",       0,    0,     255,   "",            REBOOT, "DShot: bit k reverses motor k+1 (spin-direction command at boot)"),
+    ("output_fs_ms",       100,   10,    1000,   "ms",          LIVE,   "no fresh motor command this long: every output to its disarmed value"),
+    ("motor_test_pct",    30.0,  0.0,   100.0,   "%",           LIVE,   "motor test: highest output allowed"),
+    ("servo_pwm_rate",      50,   50,     333,   "Hz",          REBOOT, "servo output rate"),
+    ("servo_min_us",      1000,  500,    2500,   "us",          LIVE,   "servo end point at -1"),
+    ("servo_mid_us",      1500,  500,    2500,   "us",          LIVE,   "servo centre: disarmed and output-failsafe position"),
+    ("servo_max_us",      2000,  500,    2500,   "us",          LIVE,   "servo end point at +1"),
     # --- autopilot link and built-in test
+    ("ap_ch",                7,    0,      18,   "ch",          LIVE,   "autopilot mode switch channel (AUX3 = 7), 0 = no autopilot"),
+    ("ap_min_us",         1700,  900,    2100,   "us",          LIVE,   "autopilot switch range start"),
+    ("ap_max_us",         2100,  900,    2100,   "us",          LIVE,   "autopilot switch range end"),
+    ("ap_timeout_ms",      200,   20,    5000,   "ms",          LIVE,   "no MSP RC this long = autopilot silent: pilot or failsafe flies"),
+    ("ap_override_pct",     10,    1,     100,   "%",           LIVE,   "pilot roll/pitch stick beyond this replaces the autopilot's"),
     # --- configuration links (CLI, MSP, maintenance protocol, storage)
     # --- flight log
+    ("blackbox_rate_hz",  1000,    0,    8000,   "Hz",          LIVE,   "flight-log rate of the fast topics, capped at loop_hz (replay needs loop_hz); 0 = off"),
     # --- board (rp2 pins and devices)
+    ("imu_type",     "mpu6050",    0,      0,    ("mpu6050", "bno055", "lsm9ds1", "icm42688", "auto"), REBOOT, "rp2 board: the IMU to start (auto = probe I2C)"),
 )
 # fmt: on
 

@@ -41,6 +41,8 @@ class Signals:
         # 5. mixer and outputs
         self.motor_norm = array("f", [0.0] * MAX_MOTORS)  # mixer demand 0..1
         self.motor_out = array("f", [0.0] * MAX_MOTORS)  # to the ESC: 0 = stop, idle..1 when armed
+        self.motor_erpm = array("i", [0] * MAX_MOTORS)  # bidirectional DShot replies, 0 = stopped
+        self.motor_rpm = array("i", [0] * MAX_MOTORS)  # mechanical: eRPM / (motor_poles / 2)
         self.servo_norm = array("f", [0.0, 0.0, 0.0, 0.0])  # -1..1
         # power
         self.battery_v = 0.0

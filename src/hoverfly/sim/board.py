@@ -1,35 +1,48 @@
 """The simulator board: the flight core's Board, served by the physics and a pilot.
 
 In lockstep the runner advances the physics, samples the IMU model into this board,
-sets the receiver channels from the pilot, then calls Flight.step(now_us). Motor
-commands the core writes are what the physics spins next step (one loop of latency,
-as on hardware).
+lets the pilot set the transmitter's channels, then calls Flight.step(now_us). The
+receiver bytes or edges for those channels arrive through sim/rxlink.py with the wire's
+timing. Motor commands the core writes cross the wire: the board's output codec
+(core/output.py) encodes them for `motor_protocol`, simulated ESCs (sim/esc.py) decode them
+into what the physics spins next step (one loop of latency, as on hardware), and the output
+timer (`output_tick`) keeps the output failsafe.
 """
 
 from array import array
 
 from hoverfly.compat import TICKS_PERIOD, ticks_add
 from hoverfly.core.board import Board
+from hoverfly.core.output import OutputEncoder, dshot_speed_kbit
+from hoverfly.core.params import Params
+from hoverfly.protocols.pulsetrain import ReplyPulseDecoder, render_analog, render_dshot, render_reply
+from hoverfly.sim.esc import SimEsc, SimServo
+from hoverfly.sim.rxlink import RxLink
 
 # Start the board clock 3 s before the tick wrap, so every simulated flight crosses it.
 BOOT_TICKS_US = TICKS_PERIOD - 3_000_000
+_TELEMETRY_KEEP = 65536  # bytes of CRSF telemetry kept for tests and tools
 
 
 class SimBoard(Board):
     name = "sim"
 
-    def __init__(self, motor_count, rx_rate_hz=250):
+    def __init__(self, motor_count, rx="crsf", rx_pwm_channels=6):
         self.sim_us = 0
         self.gyro = array("f", [0.0, 0.0, 0.0])
         self.accel = array("f", [0.0, 0.0, -9.80665])
         self.quaternion = array("f", [1.0, 0.0, 0.0, 0.0])
         self.imu_fresh = False
+        # Receiver wire: the pilot writes channels_us, the transmitter/receiver model turns them
+        # into real frames (sim/rxlink.py); rx_alive is the scenario's switch for the radio link.
         self.channels_us = array("H", [1500] * 18)
-        self.rx_period_us = 1_000_000 // rx_rate_hz
-        self._next_frame_us = 0
         self.rx_alive = True
-        self.motor_cmd = [0.0] * motor_count
+        self.rx_link = RxLink(rx, self.channels_us, rx_pwm_channels)
+        self.telemetry_out = bytearray()  # what the flight core sent to the receiver (CRSF telemetry)
+        self.telemetry_bytes = 0
+        self.motor_cmd = [0.0] * motor_count  # what the ESCs drive the motors to: the physics reads it
         self.servo_cmd = [0.0] * 4
+        self._init_escs(motor_count)
         self.battery_v = 0.0
         self.current_a = 0.0
         self.led = False
@@ -58,24 +71,108 @@ class SimBoard(Board):
             q_out[i] = q[i]
         return True
 
-    def read_rc(self, channels_us):
-        if not self.rx_alive or self.sim_us < self._next_frame_us:
-            return False
-        self._next_frame_us = self.sim_us + self.rx_period_us
-        src = self.channels_us
-        for i in range(len(channels_us)):
-            channels_us[i] = src[i]
-        return True
+    def read_rx(self, buf):
+        link = self.rx_link
+        link.advance(self.sim_us, self.rx_alive)
+        return link.take_bytes(buf)
+
+    def read_rx_edges(self, edges):
+        link = self.rx_link
+        link.advance(self.sim_us, self.rx_alive)
+        return link.take_edges(edges, BOOT_TICKS_US)
+
+    def write_rx(self, data, n):
+        out = self.telemetry_out
+        out += data[:n]
+        self.telemetry_bytes += n
+        if len(out) > _TELEMETRY_KEEP:
+            del out[:len(out) - _TELEMETRY_KEEP]
+
+    # --- motor and servo outputs: the core's output codec -> the wire -> simulated ESCs (sim/esc.py)
+    def _init_escs(self, motor_count):
+        self.motor_count = motor_count
+        self.output = OutputEncoder()  # the board's output codec, configured by Flight.configure
+        self.esc_protocol = "dshot600"
+        self.esc_line = False  # True: every frame crosses the pulse-train model (slow; tests)
+        self.escs = [SimEsc("dshot600") for _ in range(motor_count)]
+        self.servos = [SimServo() for _ in range(4)]
+        self.rotor_omega_rad_s = None  # the physics' rotor speeds (a list), for the eRPM replies
+        self.motor_telemetry = [0] * motor_count  # latest reply line codes, motor order
+        self._telemetry_new = False
+        self.output.configure(Params(), motor_count, 0, self.now_us())
+
+    def set_escs(self, protocol, motor_poles=14, line=False, mode_3d=False):
+        """Fit ESCs that speak `protocol` (a motor_protocol name), with the motors' pole count."""
+        self.esc_protocol = protocol
+        self.esc_line = line
+        if line and dshot_speed_kbit(protocol):
+            self._reply_decoder = ReplyPulseDecoder(dshot_speed_kbit(protocol))
+        self.escs = [SimEsc(protocol, motor_poles, mode_3d=mode_3d) for _ in range(self.motor_count)]
+
+    def configure_outputs(self, params, motor_count, servo_count):
+        self.output.configure(params, motor_count, servo_count, self.now_us())
+        self._send_lines()
 
     def write_motors(self, motor_out, count):
-        m = self.motor_cmd
-        for i in range(count):
-            m[i] = motor_out[i]
+        self.output.write(motor_out, count, self.now_us())
         self.motor_writes += 1
+        self._send_lines()
 
     def write_servos(self, servo_norm, count):
-        for i in range(count):
-            self.servo_cmd[i] = servo_norm[i]
+        self.output.write_servos(servo_norm, count, self.now_us())
+
+    def output_tick(self):
+        """The board's output timer, run every simulated loop period whatever the flight core does:
+        the output failsafe's watchdog. True while it holds the outputs at their disarmed values."""
+        if self.output.tick(self.now_us()):
+            self._send_lines()
+            return True
+        return False
+
+    def read_motor_telemetry(self, codes, count):
+        if not self._telemetry_new:
+            return False
+        src = self.motor_telemetry
+        for i in range(min(count, len(src))):
+            codes[i] = src[i]
+        self._telemetry_new = False
+        return True
+
+    def _send_lines(self):
+        """Put every output line on the wire once; the ESCs decode it into the motor commands."""
+        out = self.output
+        escs = self.escs
+        cmd = self.motor_cmd
+        omega = self.rotor_omega_rad_s
+        line = self.esc_line
+        for ln in range(out.motor_count):
+            m = out.motor_of_line[ln]
+            esc = escs[ln]
+            if esc.dshot != out.dshot:
+                cmd[m] = esc.throttle_norm  # an ESC cannot read the other family's signal: it holds
+                esc.errors += 1
+                continue
+            if esc.dshot:
+                w = out.words[ln]
+                if line:
+                    cmd[m] = esc.receive_line(render_dshot(w, esc.speed_kbit, out.bidir))
+                else:
+                    cmd[m] = esc.receive_word(w)
+                if esc.bidir:
+                    w_rad_s = omega[m] if omega is not None else 0.0
+                    if line:  # the reply crosses the line too: GCR levels at 5/4 of the bit rate
+                        code = self._reply_decoder.decode_code(render_reply(esc.reply_word(w_rad_s), esc.speed_kbit))
+                        self.motor_telemetry[m] = 0 if code is None else code
+                    else:
+                        self.motor_telemetry[m] = esc.reply_code(w_rad_s)
+                    self._telemetry_new = True
+            elif line:
+                period_ns = 1_000_000_000 // out.rate_hz
+                cmd[m] = esc.receive_analog_line(render_analog(int(out.pulse_us[ln] * 1000 + 0.5), period_ns))
+            else:
+                cmd[m] = esc.receive_pulse_us(out.pulse_us[ln])
+        for i in range(out.servo_count):
+            self.servo_cmd[i] = self.servos[i].receive_pulse_us(out.servo_us[i])
 
     def read_battery(self, signals):
         signals.battery_v = self.battery_v
@@ -83,3 +180,23 @@ class SimBoard(Board):
 
     def set_led(self, on):
         self.led = on
+
+    # --- configuration links: storage file and serial ports (sim/server.py serves them over TCP)
+    storage_path = None  # `hoverfly sim --storage PATH`: the parameter image lives in this file
+    serial = None  # a sim.server.TcpPorts (or any object with read(port, buf) / write(port, data, n))
+
+    def load_storage(self):
+        from hoverfly.sim.server import load_storage_file
+
+        return load_storage_file(self.storage_path)
+
+    def save_storage(self, image):
+        from hoverfly.sim.server import save_storage_file
+
+        return save_storage_file(self.storage_path, image)
+
+    def serial_read(self, port, buf):
+        return 0 if self.serial is None else self.serial.read(port, buf)
+
+    def serial_write(self, port, data, n=-1):
+        return 0 if self.serial is None else self.serial.write(port, data, n)

@@ -10,21 +10,38 @@ import math
 import time
 
 from hoverfly.compat import ticks_diff
-from hoverfly.core.arming import REASONS
+from hoverfly.core.arming import REASONS, SOURCE_NAMES
+from hoverfly.core.autopilot import DISABLED_NAMES, OVERRIDE_NAMES
 from hoverfly.core.control import MODE_NAMES
-from hoverfly.core.events import DISARM_REASONS, EV_ARMING_BLOCKED, EV_DISARMED, EV_MODE, EVENT_NAMES
+from hoverfly.core.events import (
+    DISARM_REASONS,
+    EV_ARMED,
+    EV_ARMING_BLOCKED,
+    EV_AUTOPILOT_DISABLED,
+    EV_AUTOPILOT_OVERRIDE,
+    EV_DISARMED,
+    EV_FAILSAFE_STAGE2,
+    EV_IMU_FAULT,
+    EV_MODE,
+    EVENT_NAMES,
+)
+from hoverfly.core.failsafe import FAULT_NAMES, PROCEDURES
 from hoverfly.core.flight import Flight
 from hoverfly.core.mixer import MIXER_TABLES
 from hoverfly.core.params import Params
 from hoverfly.errors import UserError
 from hoverfly.sim.airframes import load_airframe
 from hoverfly.sim.board import SimBoard
+from hoverfly.sim.companion import Companion
 from hoverfly.sim.physics import Vehicle
 from hoverfly.sim.pilot import Pilot
 from hoverfly.sim.scenario import load_scenario
 from hoverfly.sim.sensors import ImuModel
 
 _DEG = 180.0 / math.pi
+# event -> words for its detail code (the events the safety code records with a reason)
+DETAIL_NAMES = {EV_ARMED: SOURCE_NAMES, EV_AUTOPILOT_OVERRIDE: OVERRIDE_NAMES, EV_AUTOPILOT_DISABLED: DISABLED_NAMES,
+                EV_FAILSAFE_STAGE2: PROCEDURES, EV_IMU_FAULT: ("no_samples",) + FAULT_NAMES[1:]}
 
 
 def build_params(airframe, scenario, overrides):
@@ -105,11 +122,16 @@ class StepMeter:
 
 class SimRun:
     def __init__(self, airframe="5inch", scenario="demo", seed=1, overrides=(), duration_s=None,
-                 realtime=False):
+                 realtime=False, firmware="cpython", micropython=None, rx="crsf", esc="dshot600",
+                 log_path=None):
         self.airframe = load_airframe(airframe) if isinstance(airframe, str) else airframe
         self.scenario = load_scenario(scenario) if isinstance(scenario, str) else scenario
         self.seed = seed
         self.params = build_params(self.airframe, self.scenario, overrides)
+        # The simulated transmitter speaks `rx`; the flight controller is set up to match.
+        err = self.params.set("rx_provider", rx)
+        if err:
+            raise UserError("--rx: " + err)
         self.duration_s = duration_s if duration_s is not None else self.scenario["duration_s"]
         if not (0 < self.duration_s <= 3600):
             raise UserError("--duration must be between 0 and 3600 s")
@@ -120,13 +142,35 @@ class SimRun:
                             % (frame, self.airframe["name"], self.airframe["frame"]))
         self.loop_hz = self.params.get("loop_hz")
         self.vehicle = Vehicle(self.airframe, frame)
-        self.board = SimBoard(self.vehicle.n)
+        self.board = SimBoard(self.vehicle.n, self.params.get("rx_provider"), self.params.get("rx_pwm_channels"))
         self.imu = ImuModel(self.airframe["imu"], seed, self.loop_hz, self.vehicle.hover_omega(), self.vehicle.n)
+        # The simulated ESCs speak `esc` and the flight controller's output codec is set up to match;
+        # they read the real frames or pulse widths and answer bidirectional DShot from the rotors.
+        err = self.params.set("motor_protocol", esc)
+        if err:
+            raise UserError("--esc: " + err)
+        self.board.set_escs(esc, self.airframe.get("motor_poles", 14))
+        self.board.rotor_omega_rad_s = self.vehicle.omega
+        self.board.configure_outputs(self.params, self.vehicle.n, 1 if frame == "tri" else 0)
         self.flight = Flight(self.board, self.params)
+        # Firmware bridge: with firmware other than "cpython" the flight runs in another
+        # process (sim/bridge.py); the physics, pilot and judging stay here.
+        self.firmware = firmware
+        self.firmware_stats = None
+        if firmware != "cpython":
+            from hoverfly.sim.bridge import BridgedFlight
+
+            self.flight = BridgedFlight(self.board, self.params, firmware, micropython)
         self.pilot = Pilot(self.board.channels_us, self.scenario["mode"])
         self.pilot.hover_guess = self._hover_throttle_guess()
         self.events_out = []
         self.on_step = None  # optional hook: fn(run) after every pass (logger, ground station)
+        self.companion = None  # the scripted companion computer (msp_rc events), made on first use
+        self.log = None  # flight log (logs/writer.py): the logger's ring written out to log_path
+        if log_path:
+            from hoverfly.logs.writer import attach
+
+            self.log = attach(self, log_path)
 
     def _hover_throttle_guess(self):
         v = self.vehicle
@@ -167,6 +211,9 @@ class SimRun:
         wall0 = perf()
         period_s = dt
         frozen = False
+        self._imu_stuck = False
+        self._stall_until = -1.0
+        output_fs = False
         flips = []
         flip = None
 
@@ -177,26 +224,34 @@ class SimRun:
                 ev = events[ev_i]
                 ev_i += 1
                 gust_until = self._apply_event(ev, t, v, last_cmd, steps_open, steps_done, base_wind) or gust_until
-                if "imu_freeze" in ev:
-                    frozen = ev["imu_freeze"]
+                if "imu_freeze" in ev or "imu_stuck" in ev:
+                    frozen = ev.get("imu_freeze", False) or ev.get("imu_stuck", False)
             if gust_until is not None and t >= gust_until:
                 v.wind_n, v.wind_e, v.wind_d = base_wind
                 gust_until = None
             euler = v.euler_rad()  # what the pilot sees: the state at the start of this step
             pilot.update(t, dt, v, euler)
+            if self.companion is not None:  # the companion computer's MSP RC, due before this pass
+                self.companion.tick(t, board.now_us(), v)
+            if board.output_tick() != output_fs:  # the board's output timer: the output failsafe's watchdog
+                output_fs = not output_fs
+                self._output_event(boot, output_fs)
             v.servo_cmd = board.servo_cmd[0]
             v.step(dt, board.motor_cmd)
             board.sim_us += period_us
             if not frozen:
                 imu.sample(v, board.gyro, board.accel)
                 board.imu_fresh = True
+            elif self._imu_stuck:
+                board.imu_fresh = True  # the same sample again: a sensor stuck on its last value
             q = board.quaternion
             q[0], q[1], q[2], q[3] = v.qw, v.qx, v.qy, v.qz
             board.battery_v = v.battery.voltage_v
             board.current_a = v.battery.current_a
             now = board.now_us()
             w0 = perf()
-            flight.step(now)
+            if t >= self._stall_until:  # a stall event: no pass, while the board's output timer runs on
+                flight.step(now)
             took = perf() - w0
             loop_sum += took
             if took > loop_max:
@@ -205,6 +260,8 @@ class SimRun:
                 overruns += 1
             if self.on_step is not None:
                 self.on_step(self)
+            if self.log is not None:
+                self.log.drain()
             # judge (on the attitude the pilot saw: at most one loop period old)
             roll, pitch, yaw = euler
             airborne = not v.on_ground
@@ -257,6 +314,10 @@ class SimRun:
                 if lag > 0:
                     time.sleep(lag)
         wall = perf() - wall0
+        if self.log is not None:
+            self.log.close()
+        if self.firmware != "cpython":
+            self.firmware_stats = self.flight.close()
         for meter in steps_open.values():
             steps_done.append(meter)
         steps_done.sort(key=lambda m: m.t0_s)
@@ -292,18 +353,43 @@ class SimRun:
                 "cycle_jitter_max_us": sched.jitter_max_us,
             },
             "battery": {"voltage_v": round(v.battery.voltage_v, 3), "mah_drawn": round(v.battery.mah_drawn, 1)},
+            "outputs": self._outputs_report(),
+            "autopilot": self.companion.report() if self.companion is not None else None,
         }
 
     # ---------------------------------------------------------------- helpers
+    def _output_event(self, boot, tripped):
+        out = self.board.output
+        if tripped and out.failsafe_trips:
+            self.events_out.append({"t_s": round(ticks_diff(out.failsafe_at_us, boot) * 1e-6, 4),
+                                    "event": "output_failsafe", "detail": "no command for %d ms: outputs disarmed"
+                                    % (out.timeout_us // 1000)})
+        elif not tripped:
+            self.events_out.append({"t_s": round(ticks_diff(self.board.now_us(), boot) * 1e-6, 4),
+                                    "event": "output_failsafe", "detail": "commands resumed"})
+
+    def _outputs_report(self):
+        b = self.board
+        out = b.output
+        r = {"esc": b.esc_protocol, "frames": sum(e.frames for e in b.escs),
+             "errors": sum(e.errors for e in b.escs), "clamped": out.clamped,
+             "failsafe_trips": out.failsafe_trips, "bidir": out.bidir}
+        if out.bidir and hasattr(self.flight, "signals"):
+            r["rpm"] = [self.flight.signals.motor_rpm[i] for i in range(b.motor_count)]
+        return r
+
     def _event(self, boot, t_us, event, detail):
         t_s = ticks_diff(t_us, boot) * 1e-6
         name = EVENT_NAMES[event] if 0 <= event < len(EVENT_NAMES) else "event%d" % event
         if event == EV_MODE:
             text = MODE_NAMES[detail] if 0 <= detail < len(MODE_NAMES) else str(detail)
         elif event == EV_ARMING_BLOCKED:
-            text = REASONS[detail][1] if detail in REASONS else str(detail)
+            text = "%s: %s" % REASONS[detail] if detail in REASONS else str(detail)
         elif event == EV_DISARMED:
             text = DISARM_REASONS[detail] if 0 <= detail < len(DISARM_REASONS) else str(detail)
+        elif event in DETAIL_NAMES:
+            names = DETAIL_NAMES[event]
+            text = names[detail] if 0 <= detail < len(names) else str(detail)
         else:
             text = str(detail)
         self.events_out.append({"t_s": round(t_s, 4), "event": name, "detail": text})
@@ -386,8 +472,24 @@ class SimRun:
             v.wind_e = base_wind[1] + g.get("east_m_s", 0.0)
             v.wind_d = base_wind[2] + g.get("down_m_s", 0.0)
             gust_until = t + g.get("duration_s", 1.0)
+        if "stall_ms" in ev:
+            self._stall_until = t + ev["stall_ms"] * 1e-3
+            self.events_out.append({"t_s": round(t, 4), "event": "stall", "detail": "%g ms" % ev["stall_ms"]})
         if "rx_lost" in ev:
             self.board.rx_alive = not ev["rx_lost"]
+        # safety and autopilot (issue 5): the companion computer, the autopilot switch, open sessions
+        if "imu_stuck" in ev:
+            self._imu_stuck = ev["imu_stuck"]
+        if "autopilot_switch" in ev:
+            ch = self.params.get("ap_ch")
+            if ch > 0:
+                p.overrides_us[ch - 1] = 2000 if ev["autopilot_switch"] else 1000
+        if "msp_rc" in ev:
+            if self.companion is None:
+                self.companion = Companion(self.flight, self.params, p.hover_guess)
+            self.companion.set(ev["msp_rc"], t)
+        if "config_session" in ev:
+            self.flight.config_session = ev["config_session"]
         if "set" in ev:
             for name, value in ev["set"].items():
                 err = self.params.set(name, value)
@@ -396,6 +498,14 @@ class SimRun:
         return gust_until
 
 
-def fly(scenario="demo", airframe="5inch", seed=1, overrides=(), duration_s=None, realtime=False):
+def fly(scenario="demo", airframe="5inch", seed=1, overrides=(), duration_s=None, realtime=False,
+        firmware="cpython", micropython=None, rx="crsf", esc="dshot600", log_path=None):
     """Fly and judge; returns the result dict."""
-    return SimRun(airframe, scenario, seed, overrides, duration_s, realtime).run()
+    run = SimRun(airframe, scenario, seed, overrides, duration_s, realtime, firmware=firmware,
+                 micropython=micropython, rx=rx, esc=esc, log_path=log_path)
+    result = run.run()
+    if run.log is not None:
+        result["log"] = run.log.stats()
+    if run.firmware_stats is not None:
+        result["firmware"] = run.firmware_stats
+    return result

@@ -18,7 +18,14 @@ Keys an `[[at]]` entry may hold (several at once):
     positive}), kick ({roll_dps, pitch_dps, yaw_dps}: an instant change of body rate), gust
     ({north_m_s, east_m_s, down_m_s, duration_s}), wind ({north_m_s, east_m_s, down_m_s}), flip
     ("roll" or "pitch": a full 360° in acro, flown as a pilot would), rx_lost (bool), imu_freeze (bool),
-    set ({name = value}: change parameters in flight).
+    stall_ms (the flight controller stalls this long: no pass runs, the board's output timer does),
+    set ({name = value}: change parameters in flight),
+    imu_stuck (bool: the IMU keeps delivering its last sample), autopilot_switch (bool: the
+    pilot's autopilot switch on AUX ap_ch), msp_rc ({roll, pitch, yaw: -1..1, pitch forward
+    positive; throttle 0..1; arm (bool); rate_hz; channels}: a companion computer sends MSP
+    SET_RAW_RC at rate_hz from now on, flying the throttle itself with hold_altitude_m; false: it
+    falls silent), config_session (0..7: open
+    configuration sessions, 1 CLI, 2 MSP, 4 maintenance).
 """
 
 import pathlib
@@ -32,8 +39,10 @@ HERE = pathlib.Path(__file__).parent / "scenarios"
 _EVENT_KEYS = {
     "t", "arm", "mode", "throttle", "throttle_us", "roll", "pitch", "yaw", "roll_us", "pitch_us", "yaw_us",
     "hold_altitude_m", "fly_to", "land", "step", "kick", "gust", "wind", "flip", "rx_lost", "imu_freeze",
-    "set", "note",
+    "set", "note", "stall_ms",
+    "imu_stuck", "autopilot_switch", "msp_rc", "config_session",
 }
+_MSP_RC_KEYS = ("roll", "pitch", "yaw", "throttle", "arm", "rate_hz", "channels", "hold_altitude_m")
 _MODES = ("acro", "angle", "horizon")
 _AXES = ("roll", "pitch", "yaw")
 
@@ -57,13 +66,40 @@ def _check_event(where, ev, duration_s):
     if "t" not in ev:
         raise UserError("%s: every [[at]] needs a time t" % where)
     _num(where, "t", ev["t"], 0.0, duration_s)
-    for key in ("arm", "land", "rx_lost", "imu_freeze"):
+    for key in ("arm", "land", "rx_lost", "imu_freeze", "imu_stuck", "autopilot_switch"):
         if key in ev and not isinstance(ev[key], bool):
             raise UserError("%s: %s must be true or false" % (where, key))
     if "mode" in ev and ev["mode"] not in _MODES:
         raise UserError("%s: mode must be one of %s" % (where, ", ".join(_MODES)))
     if "throttle" in ev:
         _num(where, "throttle", ev["throttle"], 0.0, 1.0)
+    if "stall_ms" in ev:
+        _num(where, "stall_ms", ev["stall_ms"], 0.0, 60000.0)
+    if "config_session" in ev:
+        cs = ev["config_session"]
+        if isinstance(cs, bool) or not isinstance(cs, int) or not 0 <= cs <= 7:
+            raise UserError("%s: config_session must be 0..7 (1 CLI, 2 MSP, 4 maintenance)" % where)
+    if "msp_rc" in ev and ev["msp_rc"] is not False:
+        m = ev["msp_rc"]
+        if not isinstance(m, dict):
+            raise UserError("%s: msp_rc must be a table or false" % where)
+        for k, v in m.items():
+            if k not in _MSP_RC_KEYS:
+                raise UserError("%s: msp_rc has no field '%s' (%s)" % (where, k, ", ".join(_MSP_RC_KEYS)))
+            if k == "arm":
+                if not isinstance(v, bool):
+                    raise UserError("%s: msp_rc.arm must be true or false" % where)
+            elif k == "throttle":
+                _num(where, "msp_rc.throttle", v, 0.0, 1.0)
+            elif k == "hold_altitude_m":
+                _num(where, "msp_rc.hold_altitude_m", v, 0.0, 500.0)
+            elif k == "rate_hz":
+                _num(where, "msp_rc.rate_hz", v, 1.0, 1000.0)
+            elif k == "channels":
+                if isinstance(v, bool) or not isinstance(v, int) or not 4 <= v <= 18:
+                    raise UserError("%s: msp_rc.channels must be 4..18" % where)
+            else:
+                _num(where, "msp_rc." + k, v, -1.0, 1.0)
     for key in ("throttle_us", "roll_us", "pitch_us", "yaw_us"):
         if key in ev:
             _num(where, key, ev[key], 800, 2200)
