@@ -32,26 +32,25 @@ import json
 import machine
 from world import World, arm, hold
 from hoverfly.boards.rp2 import main as fw
+from usbport import UsbPort
 
 world = World(%(airframe)s, judge_from_s=%(judge)r)
-board = fw.make_board(%(imu)r, "crsf", "dshot600", clock=world, usb=False, storage_path=%(storage)r)
-_setup = board.setup
-
-
-def setup(params=None):
-    f = _setup(params)
-    world.sms = board._dshot.sms if board._dshot is not None else []
-    return f
-
-
-board.setup = setup
+board = fw.make_board(%(imu)r, "crsf", "dshot600", clock=world, usb=%(usb)s, storage_path=%(storage)r)
+world.board = board
 led = []
+hooks = []
+
+
+def extra(flight):
+    return {}
 
 
 def on_pass(flight):
     p = machine.pin(25)
     if p is not None and (not led or led[-1] != p.value()):
         led.append(p.value())
+    for h in hooks:
+        h(flight)
 
 """
 
@@ -66,12 +65,15 @@ r["led_changes"] = len(led)
 r["gc_runs"] = stats.gc_runs
 r["passes"] = stats.passes
 r["imu_errors"] = board.imu_read_errors
+r["failsafe_trips"] = board.output.failsafe_trips
+r["timer_ticks"] = board.timer_ticks
+r.update(extra(flight))
 print("RESULT " + json.dumps(r))
 """
 
 
-def run_board(tmp_path, body, seconds, imu="mpu6050", judge=5.0, heap="1m"):
-    values = {"airframe": repr(load_airframe("5inch")), "judge": judge, "imu": imu,
+def run_board(tmp_path, body, seconds, imu="mpu6050", judge=5.0, heap="1m", usb="False", hook=""):
+    values = {"airframe": repr(load_airframe("5inch")), "judge": judge, "imu": imu, "usb": usb,
               "storage": str(tmp_path / "params.bin"), "seconds": seconds}
     script = tmp_path / "run.py"
     script.write_text(PRELUDE % values + body + EPILOGUE % values)
@@ -144,6 +146,94 @@ def test_silent_receiver_sets_status_and_motors_never_spin(tmp_path):
     assert "rx_silent" in r["status"] and "uart1 rx GP9" in r["status"]
     assert not r["armed"]
     assert not r["spun"]
+
+
+@needs_mp
+def test_output_timer_disarms_every_motor_when_the_loop_stalls(tmp_path):
+    # given a steady hover, when the board's loop hangs for 300 ms at 3.5 s (no pass, no write),
+    # then the output timer puts stop words on every line within output_fs_ms (100 ms) + one
+    # timer period (10 ms), and the motors run again once passes resume
+    body = ("world.at(2.0, arm)\nworld.at(2.5, hold(2.0))\n"
+            "stalled = []\n"
+            "def stall(flight):\n"
+            "    if not stalled and world.t_us >= 3500000:\n"
+            "        stalled.append(1)\n"
+            "        world.stall(0.3)\n"
+            "hooks.append(stall)\n")
+    r = run_board(tmp_path, body, seconds=4.2, judge=10.0)
+    assert r["faults"] == 0, r["status"]
+    assert 0.100 <= r["stall_stop_s"] <= 0.112
+    assert r["failsafe_trips"] == 1
+    assert r["timer_ticks"] >= 400  # 100 Hz from boot, whatever the loop did
+    assert r["last_spin_s"] >= 3.9  # fresh commands after the stall spin the motors again
+
+
+@needs_mp
+def test_msp_request_over_usb_gets_a_reply_and_ctrl_c_is_off_meanwhile(tmp_path):
+    # given the board on a fake USB port, when a configurator sends MSP_API_VERSION and
+    # MSP_FC_VERSION (whose frame holds 0x03 bytes) at 1 s, then both are answered on USB,
+    # Ctrl-C is off from the first byte and back on after USB_IDLE_MS of quiet, disarmed
+    body = ("kbd = []\nboard._kbd_intr = kbd.append\nseen = []\n"
+            "world.at(1.0, lambda w: board._usb.inject(b'$M<\\x00\\x01\\x01$M<\\x00\\x03\\x03'))\n"
+            "world.at(1.5, lambda w: seen.append(board.ctrl_c_enabled))\n"
+            "world.at(3.9, lambda w: seen.append(board.ctrl_c_enabled))\n"
+            "def extra(flight):\n"
+            "    return {'tx': bytes(board._usb.tx).hex(), 'kbd': kbd, 'seen': seen,\n"
+            "            'ctrl_c': board.ctrl_c_enabled}\n")
+    r = run_board(tmp_path, body, seconds=4.5, usb="UsbPort()")
+    tx = bytes.fromhex(r["tx"])
+    frames = {}
+    i = tx.find(b"$M>")
+    while i >= 0:
+        size, cmd = tx[i + 3], tx[i + 4]
+        payload = tx[i + 5:i + 5 + size]
+        check = size ^ cmd
+        for b in payload:
+            check ^= b
+        assert tx[i + 5 + size] == check
+        frames[cmd] = payload
+        i = tx.find(b"$M>", i + 6 + size)
+    assert set(frames) == {1, 3}
+    assert len(frames[3]) == 3  # major, minor, patch
+    assert r["seen"] == [False, False]
+    assert r["kbd"] == [-1, 3]
+    assert r["ctrl_c"]
+
+
+@needs_mp
+def test_parameters_round_trip_through_the_flash_file_under_micropython(tmp_path):
+    # given parameters saved through the two-slot store into the board's file before boot,
+    # when main boots, then the flight flies them; and a save from the running flight (as the
+    # CLI's `save`) lands in the file and loads back, with no temporary file left behind
+    body = ("from hoverfly.core.params import Params\nfrom hoverfly.core.storage import Storage\n"
+            "p = Params()\np.set('p_roll', 55)\nassert Storage(board).save(p) is None\n"
+            "def extra(flight):\n"
+            "    flight.params.set('p_pitch', 66)\n"
+            "    err = flight.storage.save(flight.params)\n"
+            "    q = Params()\n"
+            "    st = Storage(board).load(q)\n"
+            "    return {'p_roll': flight.params.get('p_roll'), 'err': err, 'status': st,\n"
+            "            'loaded': (q.get('p_roll'), q.get('p_pitch')), 'bit': flight.bit.storage_ok}\n")
+    r = run_board(tmp_path, body, seconds=0.2)
+    assert r["p_roll"] == 55
+    assert r["err"] is None
+    assert r["status"] == 1  # LOADED
+    assert r["loaded"] == [55, 66]
+    assert r["bit"]
+    assert "parameters loaded" in r["stdout"]
+    assert (tmp_path / "params.bin").exists() and not (tmp_path / "params.bin.tmp").exists()
+
+
+@needs_mp
+def test_lost_parameters_fail_the_built_in_test(tmp_path):
+    # given a parameter file whose slots are both damaged, when main boots, then the defaults fly
+    # and the built-in test's storage check fails (it blocks arming)
+    (tmp_path / "params.bin").write_bytes(b"HVFP" + b"\x00" * 60)
+    body = "def extra(flight):\n    return {'bit': flight.bit.storage_ok, 'names': flight.bit.names()}\n"
+    r = run_board(tmp_path, body, seconds=0.3)
+    assert not r["bit"]
+    assert "storage" in r["names"]
+    assert "parameters lost" in r["stdout"]
 
 
 # ----------------------------------------------------------------- CPython, same fakes
@@ -251,6 +341,166 @@ def test_dshot_words_go_to_the_state_machines_and_stop_when_blind(fakes):
     b.faults |= FAULT_IMU_BUS
     b.write_motors(array("f", [0.5, 0.5, 0.5, 0.5]), 4)
     assert all((sm.take()[-1] >> 16) >> 5 == 0 for sm in sms)
+
+
+def _params(**values):
+    from hoverfly.core.params import Params
+
+    p = Params()
+    for k, v in values.items():
+        assert p.set(k, v) is None
+    return p
+
+
+def _imu_board(fakes, **params):
+    b = _board()
+    fakes.attach_i2c(0, __import__("regmodels").MPU6050Model())
+    b.setup(_params(**params))
+    return b
+
+
+def test_dshot_words_reach_the_fifos_through_the_output_encoder_in_motor_order(fakes):
+    # given motor_order 2143 (motor 1 on output 2 ...) and DShot300, when the core writes four
+    # different throttles, then each state machine's newest word is the encoder's word for its
+    # line, and motor 1's (the lowest) is on line 2
+    from array import array
+
+    from hoverfly.protocols.dshot import frame_value
+
+    b = _imu_board(fakes, motor_protocol="dshot300", motor_order=2143)
+    sms = b._dshot.sms
+    assert [sm.freq for sm in sms] == [2400000] * 4
+    first = [sm.take() for sm in sms]
+    assert all(f and frame_value(f[-1] >> 16) == 0 for f in first)  # boot: disarmed values
+    for _ in range(3):
+        b.write_motors(array("f", [0.2, 0.4, 0.6, 0.8]), 4)
+    words = [sm.take()[-1] >> 16 for sm in sms]
+    assert words == list(b.output.words[:4])
+    values = [frame_value(w) for w in words]
+    assert values[1] < values[0] < values[3] < values[2]
+    assert b.output.line_of_motor == bytes([1, 0, 3, 2])
+
+
+def test_output_timer_sends_stop_words_once_commands_stop(fakes):
+    # given motors spinning on DShot600 and output_fs_ms 100, when no write comes for 150 ms,
+    # then between 100 and 110 ms the output timer puts DShot 0 on every line, each tick after
+    from array import array
+
+    from hoverfly.protocols.dshot import frame_value
+
+    b = _imu_board(fakes)
+    sms = b._dshot.sms
+    t0_ms = b.clock.t // 1000  # the IMU's start-up delays ran the clock
+    fakes.run_timers(t0_ms)
+    b.write_motors(array("f", [0.5] * 4), 4)
+    for sm in sms:
+        sm.take()
+    stopped_at = -1
+    for t_ms in range(1, 151):
+        b.clock.t = (t0_ms + t_ms) * 1000
+        fakes.run_timers(t0_ms + t_ms)
+        got = [sm.take() for sm in sms]
+        if stopped_at < 0 and all(g and frame_value(g[-1] >> 16) == 0 for g in got):
+            stopped_at = t_ms
+    assert 100 < stopped_at <= 110
+    assert b.output.failsafe and b.output.failsafe_trips == 1
+    b.write_motors(array("f", [0.5] * 4), 4)  # commands resume: the failsafe lets go
+    assert not b.output.failsafe
+    assert all(frame_value(sm.take()[-1] >> 16) > 48 for sm in sms)
+
+
+def test_analog_output_failsafe_holds_the_minimum_pulse(fakes):
+    from array import array
+
+    b = _imu_board(fakes, motor_protocol="oneshot125", motor_pwm_rate=2000)
+    assert fakes.pwm(10).freq() == 2000
+    t0_ms = b.clock.t // 1000
+    fakes.run_timers(t0_ms)
+    b.write_motors(array("f", [1.0] * 4), 4)
+    assert fakes.pwm(12).duty_ns() == 250000
+    for t_ms in range(1, 121):
+        b.clock.t = (t0_ms + t_ms) * 1000
+        fakes.run_timers(t0_ms + t_ms)
+    assert [fakes.pwm(p).duty_ns() for p in (10, 11, 12, 13)] == [125000] * 4
+
+
+def test_bidirectional_dshot_is_refused_as_an_output_fault(fakes):
+    # the transmit-only PIO program cannot serve bidirectional ESCs: a fault, and stop words
+    from array import array
+
+    b = _imu_board(fakes, dshot_bidir=1)
+    assert b.faults & 16
+    assert "dshot_bidir" in b.status_line()
+    b.write_motors(array("f", [0.5] * 4), 4)
+    # stop (0) or a boot command (1..47, they go out while every motor is stopped): never throttle
+    assert all((sm.take()[-1] >> 16) >> 5 < 48 for sm in b._dshot.sms)
+    assert b.configure_outputs(_params(), 4, 0)  # reconfigured without it: the fault clears
+    assert not b.faults & 16
+
+
+def test_motor_telemetry_comes_back_in_motor_order(fakes):
+    from array import array
+
+    b = _imu_board(fakes, motor_order=2143)
+    codes = array("i", [0] * 4)
+    assert not b.read_motor_telemetry(codes, 4)
+    d = b._dshot
+    for line in range(4):
+        d.replies[line] = 100 + line
+    d.fresh = True
+    assert b.read_motor_telemetry(codes, 4)
+    assert list(codes) == [101, 100, 103, 102]
+    assert not b.read_motor_telemetry(codes, 4)
+
+
+def test_usb_bytes_turn_ctrl_c_off_until_disarmed_quiet_and_no_session(fakes):
+    from usbport import UsbPort
+
+    calls = []
+    b = _board()
+    b._kbd_intr = calls.append
+    b.use_usb = UsbPort()
+    b.setup()
+
+    class Arming:
+        armed = False
+
+    class Flight:
+        arming = Arming()
+        config_session = 0
+        receiver = None
+
+    b.flight = Flight()
+    buf = bytearray(64)
+    b._usb.inject(b"$M<\x00\x03\x03")
+    assert b.serial_read(0, buf) == 6
+    assert not b.ctrl_c_enabled and calls == [-1]
+    b.clock.t += 2000000
+    b.set_led(False)
+    assert not b.ctrl_c_enabled  # quiet for only 2 s
+    b.clock.t += 2000000
+    Flight.config_session = 1  # the CLI is open
+    b.set_led(False)
+    assert not b.ctrl_c_enabled
+    Flight.config_session = 0
+    Arming.armed = True
+    b.set_led(False)
+    assert not b.ctrl_c_enabled
+    Arming.armed = False
+    b.set_led(False)
+    assert b.ctrl_c_enabled and calls == [-1, 3]
+    assert b.serial_write(0, b"abc", 2) == 2 and bytes(b._usb.tx) == b"ab"
+
+
+def test_maintenance_port_is_uart0(fakes):
+    b = _board()
+    b.setup()
+    u = fakes.uart(0)
+    assert u.baudrate == 115200
+    u.inject(b"\x01\x02")
+    buf = bytearray(8)
+    assert b.serial_read(1, buf) == 2 and buf[:2] == b"\x01\x02"
+    assert b.serial_write(1, b"xyz") == 3 and bytes(u.tx) == b"xyz"
 
 
 def test_oneshot_outputs_use_machine_pwm(fakes):

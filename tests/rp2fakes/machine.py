@@ -10,6 +10,8 @@ the test wires before the board boots:
   line (a receiver talking), `tx` collects what the board sent.
 - `Pin.fire(level, t_us)` runs the pin's IRQ handler as the hardware would on an edge.
 - `PWM` records freq and duty_ns; `ADC` reads `ADC.values[pin]` (0..65535).
+- `Timer`s register here; `run_timers(now_ms)` fires each one whose period came round (the
+  world calls it as simulated time passes, so a timer runs whatever the firmware's loop does).
 
 Nothing here sleeps or reads a real clock.
 """
@@ -22,6 +24,7 @@ _i2c_fail = {0: 0, 1: 0}
 _uarts = {}
 _pins = {}
 _pwms = {}
+_timers = []
 _freq = [125000000]
 
 
@@ -34,6 +37,7 @@ def reset():
     _uarts.clear()
     _pins.clear()
     _pwms.clear()
+    del _timers[:]
 
 
 def freq(hz=None):
@@ -273,17 +277,40 @@ class ADC:
         return ADC.values.get(self.pin, 0)
 
 
+def run_timers(now_ms):
+    """Fire every timer whose next period started at or before now_ms (simulated time)."""
+    for t in _timers:
+        if t.callback is None:
+            continue
+        if t.next_ms is None:
+            t.next_ms = now_ms + t.period_ms
+            continue
+        while t.callback is not None and now_ms >= t.next_ms:
+            t.next_ms += t.period_ms
+            t.fired += 1
+            t.callback(t)
+
+
+def timers():
+    return _timers
+
+
 class Timer:
     PERIODIC = 1
     ONE_SHOT = 0
 
-    def __init__(self, timer_id=-1, mode=1, freq=0, period=0, callback=None):
-        self.callback = callback
-        self.freq = freq
+    def __init__(self, timer_id=-1, mode=1, freq=0, period=0, callback=None, hard=False):
+        self.fired = 0
+        self.init(mode, freq, period, callback, hard)
+        _timers.append(self)
 
-    def init(self, mode=1, freq=0, period=0, callback=None):
+    def init(self, mode=1, freq=0, period=0, callback=None, hard=False):
         self.callback = callback
         self.freq = freq
+        self.mode = mode
+        self.hard = hard
+        self.period_ms = period if period else (1000 // freq if freq else 1000)
+        self.next_ms = None  # armed on the first run_timers call
 
     def deinit(self):
         self.callback = None

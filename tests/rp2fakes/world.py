@@ -4,11 +4,14 @@ Tests only (runs under MicroPython and CPython). It is the rp2 board's clock (`t
 `sleep_us`): whenever the firmware waits, simulated time runs — the physics steps at
 1 kHz, each step's body rates and specific force go into the MPU-6050 register model on
 the fake I2C bus, the pilot's channels go out as CRSF frames on the fake receiver UART
-every 4 ms (250 Hz), and the newest DShot word in each PIO state machine's FIFO drives
-that motor. So the board's own main loop flies, reading registers and writing words.
+every 4 ms (250 Hz), the board's machine.Timers fire (the output failsafe), and the newest
+DShot word in each PIO state machine's FIFO drives that motor (`world.board`: the state
+machines the board has now). So the board's own main loop flies, reading registers and
+writing words. `stall(s)` (from a pass hook) is a loop that hangs: time runs, no pass.
 
-Judging (`stats`): tilt RMS and max after `judge_from_s`, altitude, crash, and whether
-any motor ever got a non-stop word (`spun`).
+Judging (`stats`): tilt RMS and max after `judge_from_s`, altitude, crash, whether any
+motor ever got a non-stop word (`spun`), and after a stall the time every motor's newest word
+became a stop (`stall_stop_s`, from the stall's start).
 """
 
 import math
@@ -48,6 +51,9 @@ class World:
         self._rx_frame = bytearray(RC_FRAME_LEN)
         self._next_rx_us = 0
         self.sms = []
+        self.board = None  # an Rp2Board: its DShot state machines drive the motors
+        self.stall_at_s = -1.0
+        self.stall_stop_s = -1.0
         self.motor_cmd = [0.0] * self.n
         self.spun = False
         self.last_spin_s = -1.0
@@ -76,9 +82,19 @@ class World:
         self.t_us = end
 
     # ------------------------------------------------------------- the physics
+    def stall(self, seconds):
+        """The firmware's loop hangs for `seconds`: simulated time (physics, timers) runs on."""
+        self.stall_at_s = self.t_us * 1e-6
+        self.stall_stop_s = -1.0
+        self.sleep_us(int(seconds * 1e6))
+
     def _motors(self):
-        for i in range(len(self.sms)):
-            fifo = self.sms[i].take()
+        sms = self.sms
+        b = self.board
+        if b is not None:
+            sms = b._dshot.sms if b._dshot is not None else []
+        for i in range(len(sms)):
+            fifo = sms[i].take()
             if fifo:
                 self.words_seen += len(fifo)
                 v = frame_value(fifo[-1] >> 16)
@@ -88,6 +104,11 @@ class World:
                     self.motor_cmd[i] = (v - 48) / 1999.0
                 else:
                     self.motor_cmd[i] = 0.0  # stop (0) or a command (1..47)
+        if self.stall_at_s >= 0.0 and self.stall_stop_s < 0.0 and sms:
+            for c in self.motor_cmd:
+                if c != 0.0:
+                    return
+            self.stall_stop_s = self.t_us * 1e-6 - self.stall_at_s
 
     def _physics_step(self):
         t_s = self.t_us * 1e-6
@@ -97,6 +118,7 @@ class World:
         euler = v.euler_rad()
         dt = PHYSICS_US * 1e-6
         self.pilot.update(t_s, dt, v, euler)
+        machine.run_timers(self.t_us // 1000)
         self._motors()
         v.step(dt, self.motor_cmd)
         g = self._g
@@ -147,6 +169,7 @@ class World:
             "spun": self.spun,
             "last_spin_s": self.last_spin_s,
             "words": self.words_seen,
+            "stall_stop_s": self.stall_stop_s,
         }
 
 

@@ -15,8 +15,9 @@ BIT_LOOP = const(2)
 BIT_BATTERY = const(3)
 BIT_STORAGE = const(4)
 BIT_CALIBRATION = const(5)
+BIT_BOARD = const(6)
 
-CHECK_NAMES = ("imu", "receiver", "loop", "battery", "storage", "calibration")
+CHECK_NAMES = ("imu", "receiver", "loop", "battery", "storage", "calibration", "board")
 CHECK_SENTENCES = (
     "IMU: no new samples, or frozen or saturated values",
     "receiver: no valid frames",
@@ -24,16 +25,18 @@ CHECK_SENTENCES = (
     "battery: below vbat_min_cell per cell",
     "storage: the stored parameters did not load (defaults in use)",
     "calibration: gyro not calibrated",
+    "board: a device failed (IMU, receiver wiring or motor outputs; see the board status line)",
 )
 
 # Failing checks that have no arming reason of their own raise BIT_FAILED.
-BLOCKING = 1 << BIT_STORAGE
+BLOCKING = (1 << BIT_STORAGE) | (1 << BIT_BOARD)
 
 
 class BuiltInTest:
     def __init__(self):
         self.flags = 0
         self.storage_ok = True  # set by the configuration links (storage load result)
+        self.board_faults = 0  # set by the board's health check (rp2: board.faults)
         self.runs = 0
 
     def update(self, imu_ok, rx_ok, loop_ok, battery_ok, calibrated):
@@ -50,6 +53,8 @@ class BuiltInTest:
             f |= 1 << BIT_STORAGE
         if not calibrated:
             f |= 1 << BIT_CALIBRATION
+        if self.board_faults:
+            f |= 1 << BIT_BOARD
         self.flags = f
         self.runs += 1
         return f

@@ -319,5 +319,8 @@ class CliServer:
         if st is not None:
             out.append("Storage: %s, sequence %d, slot %d%s" % (STATUS_NAMES[st.status], st.seq, st.slot,
                                                                   ", FAILED" if st.failed else ""))
+        line = getattr(f.board, "status_line", None)
+        if line is not None:
+            out.append("Board: %s" % line())
         out.append("Config session: %d" % getattr(f, "config_session", 0))
         return out

@@ -58,6 +58,7 @@ class ConfigLinks:
     def __init__(self, flight, storage=None):
         self.flight = flight
         self.board = flight.board
+        self.storage = storage
         self.config = ConfigPort(flight, storage)
         self.maint = MaintServer(flight, storage)
         self._buf = bytearray(_READ_BYTES)
@@ -79,6 +80,8 @@ class ConfigLinks:
     def task(self, now_us):
         board = self.board
         buf = self._buf
+        if self.storage is not None:  # the built-in test follows the storage: a good save clears it
+            self.flight.bit.storage_ok = not self.storage.failed
         for port, server in ((SERIAL_CONFIG, self.config), (SERIAL_MAINT, self.maint)):
             for _ in range(4):  # at most 2 KiB per port per run: a flood cannot hog the task
                 n = board.serial_read(port, buf)

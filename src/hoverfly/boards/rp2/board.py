@@ -1,22 +1,36 @@
 """The Raspberry Pi Pico board: the flight core's Board on real rp2 peripherals.
 
-Takes the pin map (pins.py), a configuration (which IMU, receiver protocol and motor
-protocol) and the parameters; gives the core its IMU samples (drivers over machine.I2C /
-SPI), receiver bytes or pulse edges (machine.UART; hard pin IRQs storing edge
-timestamps), motor outputs (DShot through PIO state machines, PWM/OneShot through
-machine.PWM), a servo, battery voltage and current (ADC), the status LED, parameter
-storage in a flash file, and two serial ports: USB (CLI/MSP) and UART0 (HC-05
-maintenance link). MicroPython-only: this is the one place that imports `machine`.
+Takes the pin map (pins.py), a configuration (which IMU and receiver protocol) and the
+parameters; gives the core its IMU samples (drivers over machine.I2C / SPI), receiver bytes
+or pulse edges (machine.UART; hard pin IRQs storing edge timestamps), motor outputs, a
+servo, battery voltage and current (ADC), the status LED, parameter storage in a flash file
+(written whole to a temporary file, then renamed over the old one) and two serial ports:
+USB (SERIAL_CONFIG: CLI + MSP) and UART0 (SERIAL_MAINT: the HC-05 maintenance link).
+MicroPython-only: this is the one place that imports `machine`.
+
+Outputs go through the core's output codec (core/output.py `OutputEncoder`, set up by
+`configure_outputs` from `motor_protocol`, `motor_order`, `output_fs_ms` ...): DShot words
+into one PIO state machine per output line (dshot_pio.py), or PWM/OneShot/Multishot widths
+as machine.PWM duty. A machine.Timer (OUTPUT_TIMER_MS) runs the encoder's output failsafe
+whatever the loop does: once no fresh command came for `output_fs_ms` it puts the disarmed
+values on every line, each tick, until commands resume.
 
 Faults are a bit field (`faults`, FAULT_*; `fault_names()`), the board's built-in-test
 record: IMU missing or unsupported at boot, IMU bus errors in flight, receiver silent,
-receiver bytes that never make a frame, motor outputs that failed to start. Each shows as
-a blink code on the LED (`led_pattern`) and in `status_line()`, printed whenever the set
-changes. A fault that blinds the flight (no IMU) also stops the motors here, under the
-core's own disarm.
+receiver bytes that never make a frame, motor outputs that failed to start or a set-up they
+cannot drive. Each shows as a blink code on the LED (`led_pattern`) and in `status_line()`,
+printed whenever the set changes (not while a USB configuration session is open: it would
+land in the MSP stream). A fault that blinds the flight (no IMU) or breaks the outputs also
+stops the motors here, under the core's own disarm.
 
-The clock is injectable (`clock=`: an object with ticks_us() and sleep_us(us)), so the
-very same board runs off-hardware under MicroPython against the fakes of tests/rp2fakes.
+Ctrl-C: MicroPython turns a 0x03 byte on USB into KeyboardInterrupt, and MSP frames carry
+0x03 bytes (MSP_FC_VERSION is command 3). From the first byte a configurator sends, the board
+turns that off (`micropython.kbd_intr(-1)`) and turns it back on once the flight is disarmed,
+no session is open and USB has been quiet for USB_IDLE_MS (docs/pico.md).
+
+The clock is injectable (`clock=`: an object with ticks_us() and sleep_us(us)), and so is the
+USB port (`usb=`: True for stdin/stdout, or an object with read(buf) / write(data, n)), so
+the very same board runs off-hardware under MicroPython against the fakes of tests/rp2fakes.
 """
 
 import sys
@@ -26,23 +40,27 @@ import machine
 
 from hoverfly.boards.rp2 import pins as P
 from hoverfly.compat import ticks_diff
-from hoverfly.core.board import Board
-from hoverfly.protocols import analog
-from hoverfly.protocols.dshot import DshotEncoder
+from hoverfly.core.board import SERIAL_CONFIG, SERIAL_MAINT, Board
+from hoverfly.core.output import MAX_SERVOS, OutputEncoder
 
 FAULT_IMU_ABSENT = 1  # no IMU answered at boot, wrong chip, or an IMU type this board does not know
 FAULT_IMU_BUS = 2  # the IMU stopped answering in flight (consecutive bus errors)
 FAULT_RX_SILENT = 4  # not one byte / edge on the receiver input since boot: wrong pin, no power
 FAULT_RX_GARBAGE = 8  # bytes arrive but never a valid frame: wrong protocol, baud or inversion
-FAULT_OUTPUT = 16  # the motor outputs could not be started
+FAULT_OUTPUT = 16  # the motor outputs could not be started, or cannot drive this set-up
 FAULT_NAMES = ("imu_absent", "imu_bus_error", "rx_silent", "rx_no_frames", "output_failed")
+# SAFETY: with any of these standing, write_motors sends stop values whatever the core asks.
+STOP_FAULTS = FAULT_IMU_ABSENT | FAULT_IMU_BUS | FAULT_OUTPUT
 
 IMU_TYPES = ("mpu6050", "bno055", "lsm9ds1", "icm42688", "auto")
 RX_TYPES = ("crsf", "sbus", "ibus", "ppm", "pwm")
-DSHOT_KBIT = {"dshot150": 150, "dshot300": 300, "dshot600": 600, "dshot1200": 1200}
-ANALOG = {"pwm": analog.PWM, "oneshot125": analog.ONESHOT125, "oneshot42": analog.ONESHOT42,
-          "multishot": analog.MULTISHOT}
-ANALOG_RATE_HZ = {"pwm": 490, "oneshot125": 2000, "oneshot42": 4000, "multishot": 8000}
+
+# The output failsafe's timer: 10 ms, so the outputs are disarmed at most output_fs_ms + 10 ms
+# after the last command (seed 002's 100 ms becomes <= 110 ms).
+OUTPUT_TIMER_MS = 10
+# USB quiet this long (and no session, disarmed): Ctrl-C interrupts again. A configurator polls
+# several times a second while it is connected, so 3 s of silence means it went away.
+USB_IDLE_MS = 3000
 
 IMU_BUS_ERRORS_FAULT = 5  # consecutive failed reads before the IMU counts as lost (5 ms at 1 kHz)
 RX_SILENT_MS = 1000  # no byte this long after boot: the receiver is not where we listen
@@ -77,6 +95,40 @@ class _TimeClock:
         self.sleep_us = time.sleep_us
 
 
+class UsbStdio:
+    """USB CDC through MicroPython's stdin/stdout: non-blocking reads by select.poll.
+
+    read(buf) -> bytes copied (0 when none); write(data, n) -> bytes taken. The rp2 port's
+    stdout drops output while no host has the port open; while one has, a full buffer waits
+    (the port's own short timeout), so replies stay small (MSP, CLI lines)."""
+
+    def __init__(self):
+        import select
+
+        self._poll = select.poll()
+        self._poll.register(sys.stdin, select.POLLIN)
+        self._in = sys.stdin.buffer
+        self._out = sys.stdout.buffer
+        self._one = bytearray(1)
+
+    def read(self, buf):
+        n = 0
+        one = self._one
+        poll = self._poll.poll
+        read = self._in.readinto
+        size = len(buf)
+        while n < size and poll(0):
+            if not read(one):
+                break
+            buf[n] = one[0]
+            n += 1
+        return n
+
+    def write(self, data, n):
+        self._out.write(data if n >= len(data) else memoryview(data)[:n])
+        return n
+
+
 class Rp2Board(Board):
     """See the module docstring. `setup(params)` at boot, then the Board methods."""
 
@@ -86,7 +138,7 @@ class Rp2Board(Board):
                  storage_path="/hoverfly.params", usb=True, maint=True, imu_orientation=None):
         self.imu_type = imu
         self.rx_type = rx
-        self.motor_protocol = motors
+        self.motor_protocol = motors  # only for setup() without parameters; else `motor_protocol`
         self.motor_count = motor_count
         self.clock = clock if clock is not None else _TimeClock()
         self._ticks_us = self.clock.ticks_us
@@ -96,6 +148,7 @@ class Rp2Board(Board):
         self.imu_orientation = imu_orientation
         self.faults = 0
         self.flight = None  # main() attaches it: the health check reads its receiver counters
+        self.storage = None  # main() attaches it: the health check feeds `failed` to the built-in test
         self.status = ""
         self.imu = None
         self.imu_status = "not started"
@@ -103,7 +156,7 @@ class Rp2Board(Board):
         self._imu_error_run = 0
         self._uart = None
         self.rx_ok_type = False  # a supported receiver was set up (the flight's receiver decodes it)
-        self._rx_frames = 0
+        self.rx_status = "not started"
         self.rx_bytes = 0
         self.rx_edges = 0
         self._edges = array("i", [0] * _EDGE_RING)
@@ -111,24 +164,39 @@ class Rp2Board(Board):
         self._edge_tail = 0
         self._edge_pins = []
         self._maint = None
-        self._poll = None
+        self._usb = None
+        # outputs: the core's codec, and what carries its lines
+        self.output = OutputEncoder()
+        self.output_status = "not started"
+        self._output_fault = False  # the last configure_outputs could not start or drive the set-up
+        self._output_key = None  # (protocol, lines, rate): rebuild the hardware only when it changes
         self._dshot = None
-        self._words = array("H", [0] * 8)
-        self._encoder = None
         self._pwms = []
-        self._analog = -1
-        self._servo = None
+        self._stop_ns = 0  # the protocol's disarmed pulse, precomputed: the timer allocates nothing
+        self._servos = []
+        self._servo_mid_ns = 1500000
+        self._zeros = array("f", [0.0] * len(P.MOTORS))
+        self._timer = None
+        self.timer_ticks = 0
         self._adc_v = None
         self._adc_a = None
         self._led = None
         self._boot_us = 0
         self._printed_faults = -1
         self.print_status = True
+        # Ctrl-C on USB (see the module docstring)
+        self.ctrl_c_enabled = True
+        self._usb_seen = False
+        self._usb_last_us = 0
+        import micropython  # after hoverfly.compat: CPython's stub has no kbd_intr
+
+        self._kbd_intr = getattr(micropython, "kbd_intr", None)
 
     # --------------------------------------------------------------------- boot
     def setup(self, params=None):
         """Start every peripheral; returns the fault bits (0 = all well). Never raises on a
-        missing device: the fault is recorded and the board keeps the motors stopped."""
+        missing device: the fault is recorded and the board keeps the motors stopped.
+        With params the outputs start too (Flight.configure calls configure_outputs again)."""
         self._boot_us = self._ticks_us()
         try:
             self._led = machine.Pin(P.LED, machine.Pin.OUT)
@@ -136,7 +204,17 @@ class Rp2Board(Board):
             self._led = None
         self._setup_imu()
         self._setup_rx()
-        self._setup_outputs()
+        if params is None:
+            from hoverfly.core.params import Params
+
+            params = Params()
+            err = params.set("motor_protocol", self.motor_protocol)
+            if err:
+                self.faults |= FAULT_OUTPUT
+                self.output_status = "unsupported motor protocol '%s'" % self.motor_protocol
+                self._output_fault = True
+        if not self._output_fault:
+            self.configure_outputs(params, self.motor_count, 0)
         try:
             self._adc_v = machine.ADC(machine.Pin(P.ADC_BATTERY))
             self._adc_a = machine.ADC(machine.Pin(P.ADC_CURRENT))
@@ -145,11 +223,11 @@ class Rp2Board(Board):
         if self.use_maint:
             self._maint = machine.UART(P.MAINT_UART_ID, P.MAINT_BAUD, tx=machine.Pin(P.MAINT_TX),
                                        rx=machine.Pin(P.MAINT_RX))
-        if self.use_usb:
-            import select
-
-            self._poll = select.poll()
-            self._poll.register(sys.stdin, select.POLLIN)
+        usb = self.use_usb
+        if usb is True:
+            self._usb = UsbStdio()
+        elif usb:
+            self._usb = usb  # an injected port (tests): read(buf), write(data, n)
         self._report()
         return self.faults
 
@@ -260,33 +338,6 @@ class Rp2Board(Board):
 
         return on_edge
 
-    def _setup_outputs(self):
-        proto = self.motor_protocol
-        n = self.motor_count
-        try:
-            if proto in DSHOT_KBIT:
-                from hoverfly.boards.rp2.dshot_pio import DshotPio
-
-                self._encoder = DshotEncoder(n, stop_at_zero=True)
-                self._dshot = DshotPio(P.MOTORS[:n], DSHOT_KBIT[proto])
-            elif proto in ANALOG:
-                self._analog = ANALOG[proto]
-                stop_ns = analog.pulse_ns(self._analog, 0.0)
-                for i in range(n):
-                    self._pwms.append(machine.PWM(machine.Pin(P.MOTORS[i]), freq=ANALOG_RATE_HZ[proto],
-                                                  duty_ns=stop_ns))
-            else:
-                self.faults |= FAULT_OUTPUT
-                self.output_status = "unsupported motor protocol '%s'" % proto
-                return
-            self._servo = machine.PWM(machine.Pin(P.SERVO), freq=50, duty_ns=1500000)
-        except (OSError, ValueError) as exc:
-            self.faults |= FAULT_OUTPUT
-            self.output_status = "%s failed: %s" % (proto, exc)
-            return
-        self.output_status = "%s on GP%s" % (proto, ",GP".join([str(p) for p in P.MOTORS[:n]]))
-        self.stop_motors()
-
     # ------------------------------------------------------------- Board: clock
     def now_us(self):
         return self._ticks_us()
@@ -355,35 +406,141 @@ class Rp2Board(Board):
             self._uart.write(data[:n] if n < len(data) else data)
 
     # ------------------------------------------------------------ Board: motors
-    def write_motors(self, motor_out, count):
-        # SAFETY: with no IMU the flight is blind; whatever the core asks, the motors stop.
-        if self.faults & (FAULT_IMU_ABSENT | FAULT_IMU_BUS | FAULT_OUTPUT):
-            self.stop_motors()
+    def configure_outputs(self, params, motor_count, servo_count):
+        """Boot, and while disarmed after a parameter change: the codec reads the output
+        parameters; the PIO state machines / PWM slices are rebuilt only when the protocol,
+        line count or rate changed. Every line starts at its disarmed value."""
+        enc = self.output
+        lines = len(P.MOTORS)
+        notes = []
+        if motor_count > lines:
+            notes.append("%d motors, %d output pins" % (motor_count, lines))
+        enc.configure(params, motor_count if motor_count < lines else lines, servo_count, self._ticks_us())
+        if enc.error:
+            notes.append(enc.error)
+        n = enc.motor_count
+        self._output_fault = False
+        if enc.bidir:
+            # The PIO program here only transmits; a bidirectional ESC wants the inverted line
+            # and the inverted CRC, and would never arm on these frames anyway.
+            notes.append("dshot_bidir: no bidirectional DShot PIO program on rp2 yet")
+            self._output_fault = True
+        if motor_count > lines:
+            self._output_fault = True
+        key = (enc.protocol, n, enc.rate_hz, enc.servo_count, enc.servo_rate_hz)
+        try:
+            if key != self._output_key:
+                self._stop_hardware()
+                if enc.dshot:
+                    from hoverfly.boards.rp2.dshot_pio import DshotPio
+
+                    self._dshot = DshotPio(P.MOTORS[:n], enc.speed_kbit)
+                else:
+                    for line in range(n):
+                        self._pwms.append(machine.PWM(machine.Pin(P.MOTORS[line]), freq=enc.rate_hz,
+                                                      duty_ns=int(enc.min_us * 1000.0)))
+                if enc.servo_count:
+                    self._servos.append(machine.PWM(machine.Pin(P.SERVO), freq=enc.servo_rate_hz,
+                                                    duty_ns=int(enc.servo_mid_us * 1000.0)))
+                self._output_key = key
+            self._stop_ns = int(enc.min_us * 1000.0)
+            self._servo_mid_ns = int(enc.servo_mid_us * 1000.0)
+            self._send_lines()
+            self._start_timer()
+        except (OSError, ValueError, RuntimeError) as exc:
+            self._stop_hardware()
+            self._output_key = None
+            notes.append("failed: %s" % exc)
+            self._output_fault = True
+        if self._output_fault:
+            self.faults |= FAULT_OUTPUT
+        else:
+            self.faults &= ~FAULT_OUTPUT
+        where = "GP" + ",GP".join([str(p) for p in P.MOTORS[:n]])
+        self.output_status = "%s on %s%s" % (enc.protocol, where, ("; " + "; ".join(notes)) if notes else "")
+        return self.faults & FAULT_OUTPUT == 0
+
+    def _stop_hardware(self):
+        if self._dshot is not None:
+            self._dshot.stop()
+            self._dshot = None
+        for p in self._pwms:
+            p.deinit()
+        for p in self._servos:
+            p.deinit()
+        self._pwms = []
+        self._servos = []
+
+    def _start_timer(self):
+        if self._timer is None:
+            self._timer = machine.Timer(-1, mode=machine.Timer.PERIODIC, period=OUTPUT_TIMER_MS,
+                                        callback=self._output_tick)
+
+    def _output_tick(self, timer):
+        """The output timer (OUTPUT_TIMER_MS), whatever the loop does: the output failsafe.
+
+        # SAFETY: while the codec's tick says no fresh command came for output_fs_ms, every
+        # line gets its disarmed value again, each tick (DShot 0 keeps the ESCs fed with stops).
+        Precomputed ints only: nothing here allocates."""
+        self.timer_ticks += 1
+        if not self.output.tick(self._ticks_us()):
             return
         if self._dshot is not None:
-            words = self._words
-            self._encoder.encode_motors(motor_out, True, words)
-            self._dshot.put(words, count)
-        elif self._analog >= 0:
+            self._dshot.put(self.output.words, self.output.motor_count)
+        else:
+            ns = self._stop_ns
+            for p in self._pwms:
+                p.duty_ns(ns)
+        ns = self._servo_mid_ns
+        for p in self._servos:
+            p.duty_ns(ns)
+
+    def _send_lines(self):
+        """Every line's current value from the codec onto its state machine / PWM slice."""
+        enc = self.output
+        if self._dshot is not None:
+            self._dshot.put(enc.words, enc.motor_count)
+        else:
+            pulse = enc.pulse_us
             pwms = self._pwms
-            proto = self._analog
-            for i in range(count if count < len(pwms) else len(pwms)):
-                pwms[i].duty_ns(analog.pulse_ns(proto, motor_out[i]))
+            for line in range(len(pwms)):
+                pwms[line].duty_ns(int(pulse[line] * 1000.0))
+
+    def write_motors(self, motor_out, count):
+        # SAFETY: with no IMU the flight is blind, and a broken output set-up may drive the wrong
+        # signal: whatever the core asks, every motor gets its stop value (a fresh command, so the
+        # output failsafe does not also trip).
+        if self.faults & STOP_FAULTS:
+            motor_out = self._zeros
+        self.output.write(motor_out, count, self._ticks_us())
+        self._send_lines()
 
     def stop_motors(self):
-        """Every motor line to its stop value (DShot 0 / the protocol's minimum pulse)."""
-        if self._dshot is not None:
-            words = self._words
-            self._encoder.encode_motors(words, False, words)
-            self._dshot.put(words, self.motor_count)
-        elif self._analog >= 0:
-            stop_ns = analog.pulse_ns(self._analog, 0.0)
-            for p in self._pwms:
-                p.duty_ns(stop_ns)
+        """Every motor line to its stop value now (DShot 0 / the protocol's minimum pulse)."""
+        if self._output_key is None:
+            return
+        self.output.write(self._zeros, self.output.motor_count, self._ticks_us())
+        self._send_lines()
 
     def write_servos(self, servo_norm, count):
-        if self._servo is not None and count > 0:
-            self._servo.duty_ns(int(analog.servo_pulse_us(servo_norm[0]) * 1000.0))
+        enc = self.output
+        enc.write_servos(servo_norm, count, self._ticks_us())
+        servos = self._servos
+        for i in range(len(servos) if len(servos) < MAX_SERVOS else MAX_SERVOS):
+            servos[i].duty_ns(int(enc.servo_us[i] * 1000.0))
+
+    def read_motor_telemetry(self, codes, count):
+        """Bidirectional DShot replies, motor order: the PIO side keeps them per line."""
+        d = self._dshot
+        if d is None or not d.fresh:
+            return False
+        d.fresh = False
+        replies = d.replies
+        lines = self.output.line_of_motor
+        n = count if count < self.output.motor_count else self.output.motor_count
+        for m in range(n):
+            codes[m] = replies[lines[m]]
+        return True
 
     # ------------------------------------------------------------ Board: others
     def read_battery(self, signals):
@@ -402,8 +559,10 @@ class Rp2Board(Board):
             self._led.value(1 if on else 0)
 
     def _health(self):
-        since_boot_ms = ticks_diff(self._ticks_us(), self._boot_us) // 1000
-        receiver = getattr(self.flight, "receiver", None)
+        now = self._ticks_us()
+        since_boot_ms = ticks_diff(now, self._boot_us) // 1000
+        flight = self.flight
+        receiver = getattr(flight, "receiver", None)
         if self.rx_ok_type and receiver is not None and since_boot_ms > RX_SILENT_MS:
             got = self.rx_bytes + self.rx_edges
             frames = receiver.frames
@@ -413,13 +572,43 @@ class Rp2Board(Board):
             elif frames == 0:
                 f |= FAULT_RX_GARBAGE
             self.faults = f
+        bit = getattr(flight, "bit", None)
+        if bit is not None:
+            # The built-in test's storage check follows the store (a good save clears it).
+            if self.storage is not None:
+                bit.storage_ok = not self.storage.failed
+            if hasattr(bit, "board_faults"):
+                bit.board_faults = self.faults
+        self._ctrl_c(now)
         if self.faults != self._printed_faults:
             self._report()
+
+    def _ctrl_c(self, now):
+        """Ctrl-C back on once disarmed, no session open and USB quiet for USB_IDLE_MS."""
+        if self.ctrl_c_enabled:
+            return
+        f = self.flight
+        if f is not None and (f.arming.armed or f.config_session):
+            return
+        if ticks_diff(now, self._usb_last_us) < USB_IDLE_MS * 1000:
+            return
+        self._set_ctrl_c(True)
+
+    def restore_ctrl_c(self):
+        """Ctrl-C interrupts again (main() on its way back to the REPL)."""
+        if not self.ctrl_c_enabled:
+            self._set_ctrl_c(True)
+
+    def _set_ctrl_c(self, on):
+        self.ctrl_c_enabled = on
+        if self._kbd_intr is not None:
+            self._kbd_intr(3 if on else -1)
 
     def _report(self):
         self._printed_faults = self.faults
         self.status = self.status_line()
-        if self.print_status:
+        # Not while a USB session is open: the line would land inside the configurator's MSP stream.
+        if self.print_status and self.ctrl_c_enabled:
             print(self.status)
 
     def fault_names(self):
@@ -438,60 +627,67 @@ class Rp2Board(Board):
 
     # ----------------------------------------------------------- Board: storage
     def load_storage(self):
-        try:
-            with open(self.storage_path, "rb") as f:
-                return f.read()
-        except OSError:
-            return None
+        """The parameter image from the flash file; None when nothing was ever saved. A save cut
+        between removing the old file and the rename (file systems without an atomic rename
+        over an existing file) leaves the new image whole in the temporary file: load that."""
+        for path in (self.storage_path, self.storage_path + ".tmp"):
+            try:
+                with open(path, "rb") as f:
+                    return f.read()
+            except OSError:
+                pass
+        return None
 
     def save_storage(self, image):
-        """Write the image to a temporary file, then rename it over the old one: a cut
-        write leaves the previous file whole (littlefs renames atomically)."""
+        """Write the whole image to a temporary file, then rename it over the old one: a cut
+        write leaves the previous file whole (littlefs, the rp2 port's file system, renames
+        atomically). Flash writes stall the chip for milliseconds: the core saves only while
+        disarmed. True when written."""
         import os
 
-        tmp = self.storage_path + ".tmp"
+        path = self.storage_path
+        tmp = path + ".tmp"
         try:
             with open(tmp, "wb") as f:
                 f.write(image)
-            os.rename(tmp, self.storage_path)
+            try:
+                os.rename(tmp, path)
+            except OSError:  # a file system that will not rename over an existing file
+                os.remove(path)
+                os.rename(tmp, path)
         except OSError:
             return False
         return True
 
     # ------------------------------------------------------------ Board: serial
     def serial_read(self, port, buf):
-        if port == 1:  # SERIAL_MAINT: the HC-05 UART
+        if port == SERIAL_MAINT:  # the HC-05 UART
             u = self._maint
             if u is None or not u.any():
                 return 0
             return u.readinto(buf) or 0
-        if self._poll is None:
+        if port != SERIAL_CONFIG or self._usb is None:
             return 0
-        n = 0
-        read = sys.stdin.buffer.readinto
-        one = self._one if hasattr(self, "_one") else self._new_one()
-        while n < len(buf) and self._poll.poll(0):
-            if not read(one, 1):
-                break
-            buf[n] = one[0]
-            n += 1
+        n = self._usb.read(buf)
+        if n > 0:
+            # A configurator is talking: from its first byte a 0x03 inside an MSP frame must not
+            # become a KeyboardInterrupt (which would end the loop).
+            self._usb_seen = True
+            self._usb_last_us = self._ticks_us()
+            if self.ctrl_c_enabled:
+                self._set_ctrl_c(False)
         return n
-
-    def _new_one(self):
-        self._one = bytearray(1)
-        return self._one
 
     def serial_write(self, port, data, n=-1):
         if n < 0 or n > len(data):
             n = len(data)
-        if port == 1:
+        if port == SERIAL_MAINT:
             if self._maint is None:
                 return 0
-            return self._maint.write(data[:n] if n < len(data) else data) or 0
-        if not self.use_usb:
+            return self._maint.write(data if n == len(data) else memoryview(data)[:n]) or 0
+        if port != SERIAL_CONFIG or self._usb is None:
             return 0
-        sys.stdout.buffer.write(data[:n] if n < len(data) else data)
-        return n
+        return self._usb.write(data, n)
 
 
 class _SpiDevice:

@@ -30,12 +30,20 @@ def dshot_program():
 
 
 class DshotPio:
-    """Motor lines as PIO state machines (state machines 0.. in order of `pins`)."""
+    """Motor lines as PIO state machines (state machines 0.. in order of `pins`).
+
+    `put(words, count)` sends words[line] on line `line`. `replies` (21-bit GCR line codes per
+    line) and `fresh` are the bidirectional side's slots for board.read_motor_telemetry; this
+    transmit-only program never fills them (the board refuses dshot_bidir)."""
 
     def __init__(self, pins, speed_kbit, first_sm=0):
+        from array import array
+
         from machine import Pin
 
         self.speed_kbit = speed_kbit
+        self.replies = array("i", [0] * len(pins))
+        self.fresh = False
         freq = speed_kbit * 1000 * PIO_CYCLES_PER_BIT
         self.sms = []
         for i in range(len(pins)):
@@ -51,3 +59,8 @@ class DshotPio:
         for i in range(n):
             sms[i].put(words[i], 16)
         self.puts += 1
+
+    def stop(self):
+        """Stop every state machine (a protocol change rebuilds them); the pins idle low."""
+        for sm in self.sms:
+            sm.active(0)

@@ -1,16 +1,19 @@
 """Boot and main loop on the Pico: board set-up, the flight pass at loop_hz, GC in the slack.
 
-`main()` builds the Rp2Board (pins.py), starts every device, prints one status line,
-loads the stored parameters, builds the Flight and runs the pass at `loop_hz` on the
+`main()` builds the Rp2Board (pins.py), loads the stored parameters (core/storage.py: the
+two-slot image in the board's flash file), starts every device and prints one status line,
+builds the Flight, attaches the configuration links (core/links.py: CLI + MSP on USB, the
+maintenance protocol on the HC-05 UART, a 100 Hz task) and runs the pass at `loop_hz` on the
 tick clock. After each pass it collects garbage only when the time left before the next
 pass is larger than a collection costs and the free heap is getting low — never
 mid-pass. It measures the loop: pass time, jitter against the period, overruns, GC runs
-(`LoopStats`, printed by the CLI `status`).
+(`LoopStats`, printed when the loop ends).
 
 Bad input never spins a motor: a missing or unsupported IMU, an IMU bus error in flight
 or a silent receiver each set a board fault (blink code on the LED, a status line) and
 the core refuses to arm (no IMU, no link) or disarms (IMU stale); the board stops the
-motors itself for any IMU fault. An exception in the loop stops the motors, prints the
+motors itself for any IMU or output fault, and its output timer disarms every line
+when the loop stops writing (the output failsafe). An exception in the loop stops the motors, prints the
 status and the exception, and returns to the REPL. MicroPython-only.
 """
 
@@ -44,29 +47,10 @@ class LoopStats:
             self.gc_max_us)
 
 
-def load_params(board, params):
-    """Stored parameters into params, if storage has any (core/storage.py when it is there)."""
-    blob = board.load_storage()
-    if not blob:
-        return False
-    try:
-        from hoverfly.core import storage
-    except ImportError:
-        return False
-    for name in ("load_into", "load", "decode_into"):
-        fn = getattr(storage, name, None)
-        if fn is not None:
-            try:
-                fn(params, blob)
-                return True
-            except (ValueError, TypeError, KeyError):
-                return False
-    return False
-
-
 def _board_choices(board, params):
-    """IMU type, receiver protocol and motor protocol from the parameters, where the rows exist."""
-    for attr, name in (("imu_type", "imu_type"), ("rx_type", "rx_provider"), ("motor_protocol", "motor_protocol")):
+    """IMU type and receiver protocol from the parameters, where the rows exist (the outputs
+    read `motor_protocol` themselves, in configure_outputs)."""
+    for attr, name in (("imu_type", "imu_type"), ("rx_type", "rx_provider")):
         try:
             setattr(board, attr, params.get(name))
         except KeyError:
@@ -82,27 +66,39 @@ def make_board(imu="mpu6050", rx="crsf", motors="dshot600", **kw):
 def main(board=None, params=None, passes=-1, on_pass=None, overrides=()):
     """Boot and fly: returns (flight, stats) when `passes` ran out (tests) or the loop stopped."""
     from hoverfly.core.flight import Flight
+    from hoverfly.core.links import attach
     from hoverfly.core.params import Params
+    from hoverfly.core.storage import STATUS_NAMES, Storage
 
     chosen = board is not None  # a board built by the caller keeps its own IMU/receiver/motor choice
     if board is None:
         board = make_board()
+    storage = Storage(board)
     if params is None:
         params = Params()
-        load_params(board, params)
+        storage.load(params)
     for name, value in overrides:
         err = params.set(name, value)
         if err:
             print("hoverfly: parameter %s" % err)
-    if not chosen:
+    if chosen:
+        if params.get("motor_protocol") != board.motor_protocol:
+            err = params.set("motor_protocol", board.motor_protocol)
+            if err:
+                print("hoverfly: parameter %s" % err)
+    else:
         _board_choices(board, params)
     board.setup(params)
+    print("hoverfly: parameters %s" % STATUS_NAMES[storage.status])
     flight = Flight(board, params)
+    flight.storage = storage
+    # SAFETY: a lost parameter set (defaults in use) blocks arming through the built-in test.
+    flight.bit.storage_ok = not storage.failed
     board.flight = flight
-    configure = getattr(board, "configure_outputs", None)
-    if configure is not None:
-        configure(params, flight.motor_count, 0)
+    board.storage = storage
+    links = attach(flight, storage)
     stats = LoopStats()
+    stats.links = links
     try:
         run(board, flight, stats, passes, on_pass)
     except KeyboardInterrupt:
@@ -112,6 +108,7 @@ def main(board=None, params=None, passes=-1, on_pass=None, overrides=()):
         board.stop_motors()
         print(board.status_line())
         print_exception(exc)
+    board.restore_ctrl_c()  # back at the REPL, Ctrl-C must work again
     print(stats.line())
     return flight, stats
 
