@@ -17,7 +17,8 @@ def run_sim(args):
     if args.duration is not None and args.duration <= 0:
         raise UserError("--duration must be more than 0 s")
     load_airframe(args.airframe)  # an unknown airframe is a UserError before any port opens
-    server = SimServer(args.airframe, args.msp_port, args.maint_port, args.storage, args.duration)
+    server = SimServer(args.airframe, args.msp_port, args.maint_port, args.storage, args.duration,
+                       log_path=args.log)
     print(server.describe(), flush=True)
     try:
         server.serve()
@@ -36,4 +37,5 @@ def register(sub):
     p.add_argument("--storage", default=None, metavar="PATH",
                    help="parameter storage file (loaded at start, written by save); none = not kept")
     p.add_argument("--duration", type=float, default=None, metavar="S", help="stop after S seconds")
+    p.add_argument("--log", default=None, metavar="PATH.ulg", help="write a ULog flight log (closed on exit)")
     p.set_defaults(func=run_sim)

@@ -33,6 +33,10 @@ def load_airframe(name_or_path):
     data.setdefault("name", path.stem)
     data.setdefault("frame", "quadx")
     data.setdefault("params", {})
+    data.setdefault("motor_poles", 14)  # the simulated motors' magnet poles (eRPM = RPM x poles / 2)
+    poles = data["motor_poles"]
+    if not isinstance(poles, int) or isinstance(poles, bool) or not (2 <= poles <= 48) or poles % 2:
+        raise UserError("airframe %s: motor_poles must be an even whole number 2..48" % path.name)
     if data["frame"] not in MIXER_TABLES:
         raise UserError("airframe %s: unknown frame '%s'" % (path.name, data["frame"]))
     try:

@@ -161,13 +161,13 @@ class SimServer:
     """A real-time SimRun with storage and the TCP ports wired to its board."""
 
     def __init__(self, airframe="5inch", msp_port=DEFAULT_MSP_PORT, maint_port=DEFAULT_MAINT_PORT,
-                 storage_path=None, duration_s=None, seed=1, mode="angle"):
+                 storage_path=None, duration_s=None, seed=1, mode="angle", log_path=None):
         from hoverfly.sim.runner import SimRun
 
         if duration_s is not None and not (0 < duration_s <= _FOREVER_S):
             raise UserError("--duration must be more than 0 s")
         scenario = {"name": "sim", "duration_s": 3600.0, "mode": mode, "events": [], "params": {}}
-        self.run = SimRun(airframe, scenario, seed, (), 3600.0, realtime=True)
+        self.run = SimRun(airframe, scenario, seed, (), 3600.0, realtime=True, log_path=log_path)
         self.run.duration_s = duration_s if duration_s is not None else _FOREVER_S
         board = self.run.board
         board.storage_path = storage_path
