@@ -5,9 +5,11 @@ Run: `.venv/bin/python bench/log_loop.py` and
 Prints one JSON object: us_per_pass without and with logging (blackbox_rate_hz = loop_hz =
 1000: every pass writes the six fast topics, input_rc on each receiver frame, the slow topics
 ten times a second; the ring drained to a null writer every 50 passes, drain included),
-log_us_per_pass (the difference), log_pct (of the pass without logging, goal <= 10 on CPython),
-task_us (the log task timed alone) and bytes_per_s written. Best of several runs, armed, angle
-mode, a CRSF frame every 4th pass.
+log_us_per_pass (the difference of the fastest 20-pass batches), log_pct (of the pass without
+logging, goal <= 10 on CPython), log_us_mean (the difference over all batches: flushes and slow
+topics included), task_us (Logger.update timed alone, ring drain and wrap included) and bytes_per_s written; on
+MicroPython also alloc_off/alloc_on, heap bytes allocated per pass without and with logging. Best
+of several runs, armed, angle mode, a CRSF frame every 4th pass.
 """
 
 import sys
@@ -24,7 +26,7 @@ if sys.implementation.name == "micropython":
             pass
     gc.collect()
 
-from hoverfly.compat import IS_MICROPYTHON, collect_garbage, ticks_diff, ticks_us
+from hoverfly.compat import IS_MICROPYTHON, collect_garbage, disable_gc, enable_gc, ticks_diff, ticks_us
 from hoverfly.core.board import Board
 from hoverfly.core.flight import Flight
 from hoverfly.protocols.ulog import RingSink
@@ -129,23 +131,40 @@ def run_pair():
     counter = _Counter()
     best_off = None
     best_on = None
+    sum_off = 0
+    sum_on = 0
     for i in range(RUNS * PASSES // BATCH):
         if i % 8 == 0:
             collect_garbage()
         us, t0 = _batch(f0, b0, t0)
+        sum_off += us
         best_off = us if best_off is None or us < best_off else best_off
         t_start = ticks_us()
         us, t1 = _batch(f1, b1, t1)
         ring.drain(counter.take)
         us = ticks_diff(ticks_us(), t_start)
+        sum_on += us
         best_on = us if best_on is None or us < best_on else best_on
     passes = RUNS * PASSES
-    return best_off / BATCH, best_on / BATCH, counter.n / (passes / 1000.0)
+    alloc = ""
+    if IS_MICROPYTHON:  # heap bytes per pass, from one batch with the collector off
+        per = []
+        for f, board, t in ((f0, b0, t0), (f1, b1, t1)):
+            collect_garbage()
+            disable_gc()
+            m0 = gc.mem_alloc()
+            _batch(f, board, t)
+            per.append((gc.mem_alloc() - m0) // BATCH)
+            enable_gc()
+        ring.drain(counter.take)
+        alloc = ', "alloc_off": %d, "alloc_on": %d' % (per[0], per[1])
+    return (best_off / BATCH, best_on / BATCH, (sum_on - sum_off) / passes, counter.n / (passes / 1000.0),
+            alloc)
 
 
 def task_alone():
     f, board, ring, t = _flight(True)
-    task = f.logger.task
+    task = f.logger.update
     best = None
     for _ in range(RUNS):
         collect_garbage()
@@ -163,13 +182,13 @@ def task_alone():
 
 
 def main():
-    off, on, rate = run_pair()
+    off, on, mean, rate, alloc = run_pair()
     collect_garbage()
     alone = task_alone()
     runtime = "micropython" if IS_MICROPYTHON else "cpython"
     print('{"runtime": "%s", "us_per_pass_off": %.2f, "us_per_pass_on": %.2f, "log_us_per_pass": %.2f, '
-          '"log_pct": %.1f, "task_us": %.2f, "bytes_per_s": %d, "passes": %d}'
-          % (runtime, off, on, on - off, 100.0 * (on - off) / off, alone, rate, RUNS * PASSES))
+          '"log_pct": %.1f, "log_us_mean": %.2f, "task_us": %.2f, "bytes_per_s": %d, "passes": %d%s}'
+          % (runtime, off, on, on - off, 100.0 * (on - off) / off, mean, alone, rate, RUNS * PASSES, alloc))
 
 
 main()

@@ -4,11 +4,22 @@ Runs under pytest and MicroPython (tests/portable/mprun.py test_logger).
 """
 
 import struct
+from array import array
 
 from hoverfly.core.board import Board
 from hoverfly.core.flight import Flight
-from hoverfly.core.logger import FAST_TOPICS, FORMATS, format_size
+from hoverfly.core.logger import FAST_TOPICS, FORMATS, STAGE_BYTES, copy_arrays_py, format_size
 from hoverfly.protocols.ulog import RingSink
+
+try:
+    from hoverfly.protocols.crsf import encode_rc_frame
+except ImportError:  # pragma: no cover
+    encode_rc_frame = None
+
+try:
+    from hoverfly.core.logger_viper import copy_arrays as copy_arrays_viper
+except (SyntaxError, ImportError, NameError):
+    copy_arrays_viper = None  # CPython, or a MicroPython without viper
 
 _PERIOD_US = 1000
 
@@ -21,6 +32,8 @@ class _Board(Board):
         self.frame_every = 4
         self.arm = False
         self.imu = True
+        self.rx_frame = None  # CRSF bytes served on every other receiver poll
+        self.polls = 0
 
     def now_us(self):
         return 0
@@ -35,6 +48,14 @@ class _Board(Board):
         accel[1] = -0.1
         accel[2] = -9.8
         return True
+
+    def read_rx(self, buf):
+        self.polls += 1
+        if self.rx_frame is None or self.polls & 1:
+            return 0
+        n = len(self.rx_frame)
+        buf[0:n] = self.rx_frame
+        return n
 
     def write_motors(self, out, n):
         pass
@@ -91,7 +112,7 @@ def _parse(data):
     return formats, subs, samples, strings, params, syncs, dropouts
 
 
-def _fly(passes, rate_hz=1000, sink=None, start_log=True, setup=None):
+def _fly(passes, rate_hz=1000, sink=None, start_log=True, setup=None, flush=True):
     board = _Board()
     f = Flight(board, None)
     f.params.set("blackbox_rate_hz", rate_hz)
@@ -107,6 +128,8 @@ def _fly(passes, rate_hz=1000, sink=None, start_log=True, setup=None):
         board.k = k
         t += _PERIOD_US
         f.step(t)
+    if flush:
+        f.logger.flush()
     return f, sink
 
 
@@ -161,6 +184,7 @@ def test_a_pass_without_a_new_imu_sample_logs_integral_dt_zero():
     f, sink = _fly(3, setup=setup)
     board_ref[0].imu = False
     f.step(100000 + 4 * _PERIOD_US)
+    f.logger.flush()
     sc = _parse(sink.data)[2]["sensor_combined"]
     assert struct.unpack_from("<I", sc[-1], 20)[0] == 0
     assert struct.unpack_from("<I", sc[-2], 20)[0] == _PERIOD_US
@@ -217,12 +241,40 @@ def test_a_sync_marker_goes_out_about_once_a_second():
     assert 2 <= sink.syncs <= 4
 
 
-def test_without_a_sink_nothing_is_written_and_the_task_idles():
+def test_without_a_sink_nothing_is_written_and_the_pass_skips_the_logger():
     f, sink = _fly(20, start_log=False)
     assert len(sink.data) == 0
+    assert not f.logger.active
     for t in f.scheduler.tasks:
-        if t.name == "log":
-            assert t.rate_hz == 1
+        assert t.name != "log"  # called by Flight.step, not dispatched as a task
+
+
+def test_a_closed_log_stops_the_logger_and_a_reopened_one_logs_again():
+    f, sink = _fly(10)
+    f.logger.close()
+    assert not f.logger.active
+    t = 100000 + 11 * _PERIOD_US
+    f.step(t)
+    n = len(sink.data)
+    f.step(t + _PERIOD_US)
+    assert len(sink.data) == n
+    sink2 = _Sink()
+    f.logger.open(sink2)
+    assert f.logger.active
+    f.step(t + 2 * _PERIOD_US)
+    f.logger.flush()
+    samples = _parse(sink2.data)[2]
+    assert len(samples["vehicle_attitude"]) == 1
+    assert struct.unpack_from("<Q", samples["vehicle_attitude"][0], 0)[0] == 0  # opened mid-flight: from 0
+
+
+def test_a_rate_that_does_not_divide_the_loop_rate_keeps_its_average():
+    f, sink = _fly(1000, rate_hz=300)
+    samples = _parse(sink.data)[2]["vehicle_attitude"]
+    assert 299 <= len(samples) <= 301
+    ts = [struct.unpack_from("<Q", p, 0)[0] for p in samples]
+    gaps = [ts[i + 1] - ts[i] for i in range(len(ts) - 1)]
+    assert min(gaps) == 3000 and max(gaps) == 4000
 
 
 def test_a_full_ring_drops_whole_frames_and_marks_the_gap():
@@ -247,3 +299,92 @@ def test_a_full_ring_drops_whole_frames_and_marks_the_gap():
     samples = _parse(out)[2]
     assert len(samples["vehicle_attitude"]) == f.logger.frames
     assert _parse(out)[6] >= 1  # a dropout 'O' marks the gap
+
+
+class _Writes:
+    """Keeps every write's length and bytes."""
+
+    def __init__(self):
+        self.sizes = []
+        self.data = bytearray()
+
+    def write(self, b):
+        self.sizes.append(len(b))
+        self.data.extend(b)
+        return len(b)
+
+
+def _frame_bytes():
+    n = 0
+    for name in FAST_TOPICS:
+        for fields in FORMATS:
+            if fields[0] == name:
+                n += 5 + format_size(fields[1])
+    return n
+
+
+def test_frames_go_out_in_batches_and_all_of_them_by_close():
+    sink = _Writes()
+    frame = _frame_bytes()
+    passes = 3 * (STAGE_BYTES // frame) + 2  # three full batches and a few staged frames
+    f, _ = _fly(passes, sink=sink, flush=False)
+    lg = f.logger
+    assert 0 < lg.frames < passes  # the last passes' frames are still staged
+    lg.close()
+    assert lg.frames == passes and lg.dropped == 0
+    assert len(_parse(sink.data)[2]["vehicle_attitude"]) == passes
+    # several passes' frames per write, never more than the staging buffer
+    batches = [n for n in sink.sizes if n % frame == 0 and n >= 2 * frame]
+    assert len(batches) >= 3
+    assert max(sink.sizes) <= STAGE_BYTES
+
+
+def test_input_rc_sample_holds_the_channels_of_each_new_frame():
+    if encode_rc_frame is None:
+        return
+    ch = [1000 + 37 * i for i in range(16)]
+
+    def setup(f):
+        f.board.rx_frame = bytes(encode_rc_frame(ch))
+
+    f, sink = _fly(40, setup=setup)
+    samples = _parse(sink.data)[2]["input_rc"]
+    assert len(samples) == f.rc.frames == f.logger.rc_frames > 5
+    # after timestamp, timestamp_last_signal, rssi, lost and total frame counts: values[18]
+    values = struct.unpack_from("<18H", samples[-1], 8 + 8 + 4 + 2 + 2)
+    for i in range(18):
+        assert values[i] == f.signals.rc_channels_us[i]
+    assert abs(values[0] - ch[0]) <= 1 and abs(values[15] - ch[15]) <= 1
+
+
+def test_array_copy_twins_write_each_arrays_float32_bytes_in_place():
+    a = array("f", [1.5, -2.25, 3.0e-7])
+    b = array("f", [0.125 * i - 0.3 for i in range(8)])
+    c = array("H", [1000, 2000, 65535])
+    table = array("H", [3, 12, 20, 32, 60, 6])
+    twins = [copy_arrays_py]
+    if copy_arrays_viper is not None:
+        twins.append(copy_arrays_viper)
+    for copy in twins:
+        dst = bytearray(b"\xaa" * 80)
+        copy(dst, 2, table, (a, b, c))
+        assert struct.unpack_from("<3f", dst, 5) == tuple(a)
+        assert struct.unpack_from("<8f", dst, 22) == tuple(b)
+        assert struct.unpack_from("<3H", dst, 62) == tuple(c)
+        assert dst[0:5] == b"\xaa" * 5 and dst[17:22] == b"\xaa" * 5 and dst[68:] == b"\xaa" * 12
+
+
+def test_scalar_pack_plus_array_copy_writes_the_same_log_as_one_pack():
+    logs = []
+    for copy in (None, copy_arrays_py, copy_arrays_viper):
+        if copy is None and logs:
+            continue
+
+        def setup(f, copy=copy):
+            f.logger.copy_arrays = copy
+
+        f, sink = _fly(30, setup=setup)
+        assert f.logger._copy is copy
+        logs.append(bytes(sink.data))
+    for log in logs[1:]:
+        assert log == logs[0]

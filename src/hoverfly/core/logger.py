@@ -3,8 +3,9 @@
 Takes the Flight it logs (signals, PID terms, events, parameters, scheduler and link
 statistics) and a sink (`open(sink)`: a RingSink the board drains in its slack, or a file).
 Gives a ULog that pyulog, PlotJuggler and Flight Review read, with PX4 topic names where
-one applies. It is one row of the task table ("log", at `blackbox_rate_hz`), run after the
-pass, so it sees exactly what the pass consumed and produced.
+one applies. Flight.step calls `update(now_us)` last in the pass while a sink is open (not a
+task-table row: dispatching a task due every pass cost more than the logging it ran), so it
+sees exactly what the pass consumed and produced; below the loop rate it logs every n-th pass.
 
 Topics at the logging rate, one frame per run: vehicle_attitude, vehicle_angular_velocity
 (the filtered gyro the PID used), vehicle_rates_setpoint, actuator_outputs (motor_out:
@@ -15,15 +16,17 @@ hoverfly_link about ten times a second. Events (arming, failsafe, modes) become 
 parameter changes become `P` messages after that run's samples, and a sync marker goes out
 about once a second.
 
-Cost: the fast topics are one struct.pack_into into one preallocated frame (message headers
-and constant zeros included) and one sink.write; the rest runs only when something changed.
-With no sink the task runs once a second and returns.
+Cost: the fast topics are one struct.pack_into per run straight into a preallocated staging
+buffer (headers, timestamps and PID terms as values, each array signal as one bytes argument),
+input_rc is staged behind them, and the sink gets one write per batch (STAGE_BYTES; flush() or
+close() hand over the rest); the other topics run only when something changed. With no sink the
+pass skips the logger. Figures: docs/logs.md "Logging cost", bench/log_loop.py.
 """
 
 import struct
 from array import array
 
-from hoverfly.compat import ticks_diff
+from hoverfly.compat import IS_MICROPYTHON, ticks_diff
 from hoverfly.core.arming import REASONS
 from hoverfly.core.control import MODE_NAMES
 from hoverfly.core.events import (
@@ -45,15 +48,15 @@ from hoverfly.core.params import PARAMS
 from hoverfly.protocols.ulog import UlogWriter
 
 _SLOW_HZ = 10  # battery, status, loop and link topics
-_IDLE_HZ = 1  # the task's rate while no sink is open
 _MAX_OUTPUTS = 16  # PX4 actuator_outputs.output[16]
 _RC_CHANNELS = 18  # PX4 input_rc.values[18]
 _U32_MAX = 0xFFFFFFFF
-# The frames of several runs are packed straight into one staging buffer and handed to the sink
-# in one write when the next run's frame might not fit (about five runs at 1 kHz): the sink's
-# per-write cost is paid once per batch. Anything else the log holds (slow topics, strings,
+# The frames of several passes are packed straight into one staging buffer and handed to the sink
+# in one write when the next pass's frame might not fit: the sink's per-write cost (~2.4 µs into a
+# RingSink on CPython) is paid once per batch. 2 KiB (five passes) on the Pico, where RAM is
+# short; 8 KiB (about 22 passes) elsewhere. Anything else the log holds (slow topics, strings,
 # parameter changes, syncs) goes out after the staged frames, so the file stays in time order.
-_STAGE_BYTES = 2048
+STAGE_BYTES = 2048 if IS_MICROPYTHON else 8192
 
 # PX4 message definitions (PX4-Autopilot msg/*.msg), trimmed to what hoverfly has; the
 # padding fields are left out (readers go by name). Every format starts with its timestamp.
@@ -199,6 +202,23 @@ _RC_PACK_VALUES = "<5sQQiHH18HBBBBbf"  # the same from 18 separate ints (any oth
 # tobytes, bytes(a) copies the same buffer there.
 _raw = getattr(array, "tobytes", bytes)
 
+
+def copy_arrays_py(dst, base, table, srcs):
+    """Each array of `srcs` as raw bytes into `dst` at base + table[2k] (table[2k + 1] bytes).
+    The plain twin of logger_viper.copy_arrays."""
+    for k in range(len(srcs)):
+        off = base + table[2 * k]
+        n = table[2 * k + 1]
+        dst[off : off + n] = _raw(srcs[k])[:n]
+
+
+# On MicroPython the arrays are copied by a viper loop (no bytes object, no float boxed) after a
+# pack of the scalars alone; on CPython one pack_into with the arrays' bytes is faster.
+try:
+    from hoverfly.core.logger_viper import copy_arrays as _copy_fast
+except (SyntaxError, ImportError, NameError):
+    _copy_fast = None
+
 # PX4 vehicle_status constants: arming_state 1 standby / 2 armed; nav_state 10 acro, 15 stabilized.
 _ARMING_STANDBY = 1
 _ARMING_ARMED = 2
@@ -210,11 +230,32 @@ _LEVEL_WARNING = 4
 _LEVEL_ERROR = 3
 
 
-def _fast_format():
+def _fast_format(gaps=False):
+    """The frame's struct format; with gaps the arrays' bytes are skipped ('Nx') for a copy."""
     fmt = "<"
     for p in _FAST_PACK:
-        fmt += "5s" + p
+        fmt += "5s" + (p.replace("s", "x") if gaps else p)
     return fmt
+
+
+def _array_table():
+    """(offset in the frame, byte count) of each array field, in frame order, as array('H')."""
+    table = array("H")
+    off = 0
+    for p in _FAST_PACK:
+        off += 5
+        count = ""
+        for c in p:
+            if "0" <= c <= "9":
+                count += c
+                continue
+            n = int(count) if count else 1
+            if c == "s":
+                table.append(off)
+                table.append(n)
+            off += struct.calcsize("<%d%s" % (n, c))
+            count = ""
+    return table
 
 
 def format_size(fields):
@@ -269,10 +310,13 @@ def param_to_ulog(row, value):
 
 
 class Logger:
-    """Flight-log task. `open(sink)` starts a log (definitions at the next run), `close()` ends it.
+    """Flight logger. `open(sink)` starts a log (definitions at the next pass), `close()` ends it;
+    `active` is True while one is open (and blackbox_rate_hz > 0): Flight.step then calls
+    `update(now_us)` every pass. `start(now_us)` is Flight.start's time (log time counts from it).
 
-    Counters: frames (fast frames written), dropped (frames the sink refused), rc_frames,
-    events, param_changes, bytes (of the fast frames and input_rc).
+    Counters: frames (fast frames the sink took), dropped (fast and input_rc frames it refused),
+    rc_frames, events, param_changes, bytes (of the fast frames and input_rc). Frames are staged
+    and handed over in batches: flush() hands over the staged ones now.
     """
 
     def __init__(self, flight):
@@ -288,16 +332,22 @@ class Logger:
         self.bytes = 0
         self.sys_name = "hoverfly"
         self._fmt = _fast_format()
+        self._fmt_gaps = _fast_format(True)
+        self._table = _array_table()
+        self._srcs = ()
+        # How the arrays reach the frame: None = as bytes arguments of the one pack_into, else
+        # copy_arrays(stage, frame offset, table, arrays) after a pack of the scalars.
+        self.copy_arrays = _copy_fast
+        self._copy = None  # copy_arrays for this log, None if an array's size does not match
         self._fast_n = struct.calcsize(self._fmt)
         self._rc_n = struct.calcsize(_RC_PACK)
-        self._stage = bytearray(_STAGE_BYTES)
+        self._stage = bytearray(STAGE_BYTES)
         self._stage_mv = memoryview(self._stage)
-        self._stage_last = _STAGE_BYTES - self._fast_n - self._rc_n  # flush once past this offset
+        self._stage_last = STAGE_BYTES - self._fast_n - self._rc_n  # flush once past this offset
         self._off = 0  # staged bytes
         self._staged = 0  # staged fast frames
         self._staged_rc = 0  # staged input_rc samples
         self._staged_t64 = 0  # time of the first staged frame
-        self._headers = [b"\0" * 5] * len(_FAST_PACK)
         self._rc_header = b"\0" * 5
         self._ids = {}
         self._sink_free = None
@@ -313,13 +363,17 @@ class Logger:
         self._drop_t64 = 0
         self._armed_t64 = 0
         self._h = []
-        self._task = None
         self._receiver = None
         self._dt_us = 1000
-        self._arrays = None
-        self._pids = None
-        self._controller = None
-        self._setpoint = None
+        self.active = False  # a sink is open and the rate is above 0: Flight.step calls update()
+        self._start_us = 0  # Flight.start's tick time
+        self._started = False
+        self._from_start = False  # opened before Flight.start: log time counts from the start
+        self._every_pass = True  # blackbox_rate_hz == loop_hz
+        self._period_us = 1000  # 1 / blackbox_rate_hz
+        self._pass_us = 1000  # 1 / loop_hz
+        self._left_us = 0  # until the next logged pass, counted down by pass_us
+        self._bound = None
         self._rc = None
         self._events = None
         self._params = None
@@ -327,37 +381,43 @@ class Logger:
 
     # ---------------------------------------------------------------- set-up
     def configure(self, params):
-        """Read blackbox_rate_hz (capped at the loop rate) and set the task's rate."""
+        """Read blackbox_rate_hz (capped at the loop rate) and the loop rate it divides."""
         rate = params.get("blackbox_rate_hz")
         loop_hz = params.get("loop_hz")
         if rate > loop_hz:
             rate = loop_hz
         self.rate_hz = rate
         self._dt_us = 1000000 // loop_hz  # gyro_integral_dt of a pass with a new IMU sample
+        self._pass_us = self._dt_us
         self._apply_rate()
 
     def _apply_rate(self):
-        rate = self.rate_hz if (self.sink is not None and self.rate_hz > 0) else _IDLE_HZ
+        rate = self.rate_hz
+        self.active = self.sink is not None and rate > 0
+        if rate <= 0:
+            return
         every = rate // _SLOW_HZ
         self._slow_every = every if every > 0 else 1
-        task = self._task
-        if task is None:
-            for t in self.flight.scheduler.tasks:
-                if t.name == "log":
-                    task = t
-            self._task = task
-        if task is not None:
-            task.rate_hz = rate
-            task.period_us = 1000000 // rate
+        self._period_us = 1000000 // rate
+        self._every_pass = self._period_us <= self._pass_us
+        if self._left_us > self._period_us:
+            self._left_us = self._period_us
+
+    def start(self, now_us):
+        """Flight.start: the time log timestamps count from (a log opened before it)."""
+        self._start_us = now_us
+        self._started = True
 
     def open(self, sink):
-        """Start a log into `sink` (anything with write(bytes)); definitions go out at the next run."""
+        """Start a log into `sink` (anything with write(bytes)); definitions go out at the next pass."""
         self.sink = sink
         self._off = 0
         self._staged = 0
         self._staged_rc = 0
         self._sink_free = getattr(sink, "free", None)
         self.writer = None
+        self._from_start = not self._started
+        self._left_us = 0  # the next pass logs
         self._apply_rate()
 
     def close(self):
@@ -400,26 +460,31 @@ class Logger:
         for i in range(len(FAST_TOPICS)):
             size = struct.calcsize("<" + _FAST_PACK[i])
             headers.append(struct.pack("<HBH", size + 2, 0x44, ids[FAST_TOPICS[i]]))
-        self._headers = headers
         self._rc_header = struct.pack("<HBH", struct.calcsize(_RC_PACK) - 3, 0x44, ids["input_rc"])
         # What the task reads every run, bound once: the stages fill these same objects in place.
         sig = f.signals
         c = f.controller
-        self._arrays = (sig.attitude.q, sig.gyro_rad_s, sig.setpoint.rate_rad_s, sig.motor_out,
-                        sig.gyro_raw_rad_s, sig.accel_raw_m_s2, sig.torque_norm)
-        self._pids = (c.roll, c.pitch, c.yaw)
-        self._controller = c
-        self._setpoint = sig.setpoint
+        self._bound = (headers[0], headers[1], headers[2], headers[3], headers[4], headers[5],
+                       sig.attitude.q, sig.gyro_rad_s, sig.setpoint.rate_rad_s, sig.motor_out,
+                       sig.gyro_raw_rad_s, sig.accel_raw_m_s2, sig.torque_norm, c.roll, c.pitch, c.yaw,
+                       sig.setpoint, c, f.mixer)
         self._rc = f.rc
         self._events = f.events
         self._params = f.params
+        self._srcs = (sig.attitude.q, sig.gyro_rad_s, sig.setpoint.rate_rad_s, sig.motor_out,
+                      sig.gyro_raw_rad_s, sig.accel_raw_m_s2, sig.torque_norm)
+        copy = self.copy_arrays
+        for k in range(len(self._srcs)):
+            if len(_raw(self._srcs[k])) != self._table[2 * k + 1]:
+                copy = None  # the copy would read past a short array: pack its bytes instead
+        self._copy = copy
         ch = sig.rc_channels_us
         self._rc_whole = len(ch) == _RC_CHANNELS and len(_raw(ch)) == 2 * _RC_CHANNELS
-        # The first run's due time is the scheduler's start (boot): log time is µs since then.
+        # Log time is µs since Flight.start when the log was opened before it (from boot), else
+        # it starts at 0 here (a tick difference over a long flight could wrap).
         t0 = 0
-        task = self._task
-        if task is not None:
-            t0 = ticks_diff(now_us, task.next_us)
+        if self._from_start and self._started:
+            t0 = ticks_diff(now_us, self._start_us)
             if t0 < 0:
                 t0 = 0
         self._t64 = t0
@@ -431,11 +496,16 @@ class Logger:
         self._dropping = False
         w.maybe_sync(t0)
 
-    # ------------------------------------------------------------------ the task
-    def task(self, now_us):
-        sink = self.sink
-        if sink is None or self.rate_hz <= 0:
-            return
+    # ------------------------------------------------------------------ the pass
+    def update(self, now_us):
+        """One logged pass: Flight.step calls it last in the pass while `active`. Below the loop
+        rate it counts passes down (in µs of the nominal period) and logs the due ones."""
+        if not self._every_pass:
+            left = self._left_us - self._pass_us
+            if left > 0:
+                self._left_us = left
+                return
+            self._left_us = left + self._period_us
         if self.writer is None:
             self._begin(now_us)
             t = self._t64
@@ -445,26 +515,37 @@ class Logger:
             self._last_now = now_us
         f = self.flight
         raw = _raw
-        q, g, rs, mo, gr, ar, tq = self._arrays
-        r, p, y = self._pids
-        h0, h1, h2, h3, h4, h5 = self._headers
-        dt_us = self._dt_us if f._imu_us == now_us else 0
+        h0, h1, h2, h3, h4, h5, q, g, rs, mo, gr, ar, tq, r, p, y, sp, c, mixer = self._bound
+        dt_us = self._dt_us if f.imu_us == now_us else 0
         i_active = f.i_active
-        # One C call packs the whole frame into the staging buffer (headers, the seven copies of
-        # the timestamp, the PID terms); each array signal goes in as one bytes object.
         off = self._off
         if off == 0:
             self._staged_t64 = t
-        struct.pack_into(
-            self._fmt, self._stage, off,
-            h0, t, raw(q),
-            h1, t, t, raw(g),
-            h2, t, raw(rs), -self._setpoint.throttle_norm, 0 if i_active else 1,
-            h3, t, f.motor_count, raw(mo),
-            h4, t, raw(gr), dt_us, raw(ar), dt_us,
-            h5, t, r.p, p.p, y.p, r.i, p.i, y.i, r.d, p.d, y.d, r.f, p.f, y.f, raw(tq), self._controller.tpa,
-            1 if i_active else 0, 1 if f.airmode_active else 0, 1 if f.mixer.saturated else 0,
-        )
+        if self._copy is None:
+            # One C call packs the whole frame into the staging buffer (headers, the seven copies of
+            # the timestamp, the PID terms); each array signal goes in as one bytes object.
+            struct.pack_into(
+                self._fmt, self._stage, off,
+                h0, t, raw(q),
+                h1, t, t, raw(g),
+                h2, t, raw(rs), -sp.throttle_norm, 0 if i_active else 1,
+                h3, t, f.motor_count, raw(mo),
+                h4, t, raw(gr), dt_us, raw(ar), dt_us,
+                h5, t, r.p, p.p, y.p, r.i, p.i, y.i, r.d, p.d, y.d, r.f, p.f, y.f, raw(tq), c.tpa,
+                1 if i_active else 0, 1 if f.airmode_active else 0, 1 if mixer.saturated else 0,
+            )
+        else:
+            struct.pack_into(
+                self._fmt_gaps, self._stage, off,
+                h0, t,
+                h1, t, t,
+                h2, t, -sp.throttle_norm, 0 if i_active else 1,
+                h3, t, f.motor_count,
+                h4, t, dt_us, dt_us,
+                h5, t, r.p, p.p, y.p, r.i, p.i, y.i, r.d, p.d, y.d, r.f, p.f, y.f, c.tpa,
+                1 if i_active else 0, 1 if f.airmode_active else 0, 1 if mixer.saturated else 0,
+            )
+            self._copy(self._stage, off, self._table, self._srcs)
         off += self._fast_n
         self._staged += 1
         rc = self._rc
