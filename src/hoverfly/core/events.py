@@ -57,7 +57,8 @@ DISARM_CRASH = const(3)
 DISARM_IMU = const(4)
 DISARM_COMMAND = const(5)  # an MSP command: the autopilot's arm channel off
 DISARM_LOAD = const(6)  # loop overrun storm while armed
-DISARM_REASONS = ("switch", "failsafe", "landed", "crash", "imu_fault", "command", "load")
+DISARM_FS_SWITCH = const(7)  # the failsafe switch (AUX fs_switch_ch) in kill mode
+DISARM_REASONS = ("switch", "failsafe", "landed", "crash", "imu_fault", "command", "load", "fs_switch")
 
 
 class EventLog:

@@ -13,6 +13,10 @@ the last valid frame (default 500 ms, seed 002's RC failsafe); stage 2 runs `fs_
 - glide (fixed wing, seed 002's stabilised glide): level, throttle off.
 A link that comes back ends stage 1 at once but not stage 2: the pilot must disarm, or move
 the sticks out of centre, to take over (as Betaflight).
+The failsafe switch (Betaflight's FAILSAFE box, `fs_switch_mode`) runs the same stages:
+Flight drops frames taken with it on, so stage1 mode is a lost receiver to the letter;
+stage2 mode also passes `skip_stage1`; kill mode disarms in Flight and never gets here.
+The cause (no frames, or the switch) is the detail of the rx_lost and stage-1 events.
 
 `FaultWatch` looks at the IMU and the loop every slow pass and names what is wrong: a frozen
 IMU (new samples that repeat bit for bit), a saturated one, a crash on the ground (armed,
@@ -39,6 +43,16 @@ PROC_DROP = const(0)
 PROC_LAND = const(1)
 PROC_GLIDE = const(2)
 PROCEDURES = ("drop", "land", "glide")
+
+# Why the link counts as lost: detail of EV_RX_LOST and EV_FAILSAFE_STAGE1.
+CAUSE_NO_FRAMES = const(0)
+CAUSE_SWITCH = const(1)
+CAUSES = ("no_frames", "fs_switch")
+
+# fs_switch_mode (params.FS_SWITCH_MODES order)
+SWITCH_STAGE1 = const(0)
+SWITCH_STAGE2 = const(1)
+SWITCH_KILL = const(2)
 
 _G_M_S2 = 9.80665
 # Touchdown: an acceleration spike above this while landing (m/s²; 2.5 g), squared to skip the root.
@@ -137,8 +151,11 @@ class Failsafe:
         hi = _LAND_MAX * hover
         self.land_throttle_norm = lo if thr < lo else (hi if thr > hi else thr)
 
-    def update(self, now_us, link_lost, last_frame_us, armed, sticks_moved, arming):
-        """Slow task: advance the stages. Stage times count from the last valid frame."""
+    def update(self, now_us, link_lost, last_frame_us, armed, sticks_moved, arming, cause=CAUSE_NO_FRAMES,
+               skip_stage1=False):
+        """Slow task: advance the stages. Stage times count from the last valid frame. `cause`
+        names why the link is lost (stage-1 event detail); `skip_stage1` goes straight on to
+        stage 2 (the failsafe switch in stage2 mode)."""
         if not armed:
             if self.state != IDLE:
                 self.state = IDLE
@@ -149,12 +166,12 @@ class Failsafe:
             if link_lost:
                 self.state = STAGE1
                 self.stage_since_us = last_frame_us
-                self.events.record(now_us, EV_FAILSAFE_STAGE1, 0)
+                self.events.record(now_us, EV_FAILSAFE_STAGE1, cause)
         if self.state == STAGE1:
             if not link_lost:
                 self.state = IDLE
                 self.events.record(now_us, EV_FAILSAFE_END, 0)
-            elif ticks_diff(now_us, self.stage_since_us) >= self.rx_timeout_us + self.delay_us:
+            elif skip_stage1 or ticks_diff(now_us, self.stage_since_us) >= self.rx_timeout_us + self.delay_us:
                 self.state = STAGE2
                 self.stage_since_us = now_us
                 self._peak_sq = 0.0

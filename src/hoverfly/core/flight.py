@@ -10,6 +10,7 @@ from hoverfly.core.arming import (
     AUTOPILOT,
     BATTERY_CRITICAL,
     BIT_FAILED,
+    BOXFAILSAFE,
     CRASH_DETECTED,
     FAILSAFE,
     MOTOR_TEST,
@@ -22,6 +23,7 @@ from hoverfly.core.control import MODE_ANGLE, Controller
 from hoverfly.core.estimator import BoardAlignment, ExternalAttitude, GyroCalibration, Mahony
 from hoverfly.core.events import (
     DISARM_CRASH,
+    DISARM_FS_SWITCH,
     DISARM_IMU,
     DISARM_LOAD,
     EV_AIRMODE,
@@ -33,13 +35,26 @@ from hoverfly.core.events import (
     EV_RX_RESTORED,
     EventLog,
 )
-from hoverfly.core.failsafe import FAULT_NONE, IDLE, PROC_DROP, PROC_GLIDE, PROC_LAND, STAGE2, Failsafe, FaultWatch
+from hoverfly.core.failsafe import (
+    CAUSE_NO_FRAMES,
+    CAUSE_SWITCH,
+    FAULT_NONE,
+    IDLE,
+    PROC_DROP,
+    PROC_GLIDE,
+    PROC_LAND,
+    STAGE2,
+    SWITCH_KILL,
+    SWITCH_STAGE2,
+    Failsafe,
+    FaultWatch,
+)
 from hoverfly.core.filters import AccelFilter, GyroFilter
 from hoverfly.core.logger import Logger
 from hoverfly.core.mixer import Mixer
 from hoverfly.core.motortest import MotorTest
 from hoverfly.core.output import OutputStage
-from hoverfly.core.params import Params
+from hoverfly.core.params import FS_SWITCH_MODES, Params
 from hoverfly.core.rc import RcInput
 from hoverfly.core.receiver import Receiver
 from hoverfly.core.scheduler import Scheduler
@@ -84,7 +99,7 @@ class Flight:
         self.motor_max = 1.0
         self._configured_at = -1
         self._last_us = 0
-        self._imu_us = 0
+        self.imu_us = 0
         self._imu_stale_us = 20000
         self.imu_ok = True
         self.rx_ok = False
@@ -92,6 +107,9 @@ class Flight:
         self._rx_timeout_us = 100000
         self._airmode_thr = 0.25
         self.airmode_active = False
+        self.airmode_enabled = True  # the airmode parameter, or the AIRMODE switch when airmode_ch is set
+        self.fs_switch = False  # the failsafe switch as read from the latest frame
+        self._fs_switch_mode = 0
         self.i_active = False
         self._throttle_was_up = False
         self._mode = -1
@@ -103,8 +121,9 @@ class Flight:
         self.scheduler.add("arming", 100, self.task_arming)
         self.scheduler.add("battery", 50, self.task_battery)
         self.scheduler.add("led", 10, self.task_led)
-        self.logger = Logger(self)  # flight log: idle (1 Hz, no writes) until logger.open(sink)
-        self.scheduler.add("log", 1, self.logger.task)
+        # Flight log: called last in every pass while a sink is open (not a task: a task due every
+        # pass costs more to dispatch than the logging it runs; bench/log_loop.py).
+        self.logger = Logger(self)
 
     # ----------------------------------------------------------------- set-up
     def configure(self):
@@ -125,7 +144,7 @@ class Flight:
         self.arming.configure(p)
         if p.get("arm_source") == "seed001":
             # Seed 001: the arm channel above 1500 µs arms (the range rule, with no upper end).
-            self.rc._arm = (p.get("arm_ch"), 1501, 0x10000)
+            self.rc.set_arm_range(p.get("arm_ch"), 1501, 0x10000)
         self.failsafe.configure(p)
         self.faults.configure(p)
         self.autopilot.configure(p)
@@ -140,18 +159,20 @@ class Flight:
         self._imu_stale_us = p.get("imu_stale_ms") * 1000
         self._rx_timeout_us = p.get("rx_timeout_ms") * 1000
         self._airmode_thr = p.get("airmode_thr_pct") * 0.01
+        self._fs_switch_mode = FS_SWITCH_MODES.index(p.get("fs_switch_mode"))
         self._configured_at = p.changed
 
     def start(self, now_us):
         """Boot: configure, start the clocks and the gyro calibration."""
         self.configure()
         self._last_us = now_us
-        self._imu_us = now_us
+        self.imu_us = now_us
         self.last_frame_us = now_us
         self.receiver.start(now_us)
         self.arming.boot_us = now_us
         self.calibration.reset()
         self.scheduler.start(now_us, self.loop_hz)
+        self.logger.start(now_us)
 
     # ------------------------------------------------------------------ the pass
     def step(self, now_us):
@@ -165,7 +186,7 @@ class Flight:
 
         # 1. IMU and filters
         if board.read_imu(s.gyro_raw_rad_s, s.accel_raw_m_s2):
-            self._imu_us = now_us
+            self.imu_us = now_us
             self.alignment.apply(s.gyro_raw_rad_s)
             self.alignment.apply(s.accel_raw_m_s2)
             if not self.calibration.calibrated:
@@ -212,6 +233,8 @@ class Flight:
         if output.bidir and board.read_motor_telemetry(output.reply_codes, n):
             output.decode_replies(n, s.motor_erpm, s.motor_rpm)
         self.scheduler.run(now_us)
+        if self.logger.active:
+            self.logger.update(now_us)
 
     def command(self, sp):
         """Who flies: the pilot, the autopilot (seed 004) or the failsafe; and whether I-term and
@@ -249,11 +272,16 @@ class Flight:
             self._throttle_was_up = False
         elif sp.throttle_norm > self._airmode_thr and not self._throttle_was_up:
             self._throttle_was_up = True
-            self.events.record(self._last_us, EV_AIRMODE, 1)
         # Until the throttle has been raised once after arming the craft sits on the ground:
         # no I-term wind-up against the ground, no air-mode spin-up (Betaflight's airmode start).
         self.i_active = armed and self._throttle_was_up
-        self.airmode_active = armed and self._throttle_was_up and self.mixer.airmode
+        # Air mode: the airmode parameter, or with an AIRMODE channel set only its switch (in range = on).
+        self.airmode_enabled = rc.airmode_switch if rc.airmode_box else self.mixer.airmode
+        active = self.i_active and self.airmode_enabled
+        if active != self.airmode_active:
+            self.airmode_active = active
+            if armed:  # air mode starts (1) or the switch turns it off in flight (0)
+                self.events.record(self._last_us, EV_AIRMODE, 1 if active else 0)
         if not self.i_active:
             self.controller.roll.i = 0.0
             self.controller.pitch.i = 0.0
@@ -263,20 +291,32 @@ class Flight:
     def task_rx(self, now_us):
         s = self.signals
         rx = self.receiver
-        if rx.update(now_us, self.board):
+        fresh = rx.update(now_us, self.board)
+        if fresh:
+            self.fs_switch = self.rc.fs_switch_in(rx.channels_us)
+            if self.fs_switch and self._fs_switch_mode != SWITCH_KILL:
+                # SAFETY: failsafe switch (stage1/stage2): the frame is dropped as if it never came,
+                # so the link watch times out below and the failsafe runs as for a lost receiver.
+                fresh = False
+        if fresh:
             self.last_frame_us = now_us
             rx.copy_channels(s.rc_channels_us)
             self.rc.new_frame(s.rc_channels_us)
             if not self.rx_ok:
                 self.rx_ok = True
                 self.events.record(now_us, EV_RX_RESTORED, 0)
+            if self.fs_switch:
+                # SAFETY: failsafe switch, kill: disarm on this frame; BOXFAILSAFE blocks the arm
+                # switch from this frame on (task_arming keeps it while the switch stays on).
+                self.arming.disarm(now_us, DISARM_FS_SWITCH)
+                self.arming.flags |= 1 << BOXFAILSAFE
             if self.failsafe.state == IDLE:
                 self.arming.on_switch(now_us, self.rc.arm_switch)
         elif self.rx_ok and ticks_diff(now_us, self.last_frame_us) > self._rx_timeout_us:
             self.rx_ok = False
-            self.events.record(self.last_frame_us, EV_RX_LOST, 0)
+            self.events.record(self.last_frame_us, EV_RX_LOST, CAUSE_SWITCH if self.fs_switch else CAUSE_NO_FRAMES)
         if rx.telemetry_due(now_us):
-            rx.send_telemetry(now_us, self.board, s, s.setpoint.mode, self.mixer.airmode, self.failsafe.state != IDLE,
+            rx.send_telemetry(now_us, self.board, s, s.setpoint.mode, self.airmode_enabled, self.failsafe.state != IDLE,
                               self.arming.armed, self.arming.flags)
 
     def task_arming(self, now_us):
@@ -293,7 +333,7 @@ class Flight:
             dt_s = 0.01
         armed = arming.armed
         # IMU: no new samples for imu_stale_ms, or new samples frozen or saturated
-        imu_ok = ticks_diff(now_us, self._imu_us) <= self._imu_stale_us
+        imu_ok = ticks_diff(now_us, self.imu_us) <= self._imu_stale_us
         fault = fw.check_imu(s.gyro_raw_rad_s, s.accel_raw_m_s2) if imu_ok else FAULT_NONE
         if fault != FAULT_NONE:
             imu_ok = False
@@ -328,6 +368,8 @@ class Flight:
             more |= 1 << BIT_FAILED
         if fs.state != IDLE:
             more |= 1 << FAILSAFE
+        if self.fs_switch:
+            more |= 1 << BOXFAILSAFE
         if self._crash_latched:
             more |= 1 << CRASH_DETECTED
         if ap.switch_on():
@@ -338,7 +380,10 @@ class Flight:
         fs.observe(dt_s, s.attitude.q, s.accel_m_s2, s.setpoint.throttle_norm, s.attitude.cos_tilt,
                    arming.armed and self._throttle_was_up)
         sticks_moved = (abs(rc.stick_raw[0]) > 0.3 or abs(rc.stick_raw[1]) > 0.3)
-        fs.update(now_us, not self.rx_ok, self.last_frame_us, arming.armed, sticks_moved, arming)
+        # The failsafe switch in stage2 mode: lost from the first dropped frame, straight to stage 2.
+        switch_stage2 = self.fs_switch and self._fs_switch_mode == SWITCH_STAGE2
+        fs.update(now_us, not self.rx_ok or switch_stage2, self.last_frame_us, arming.armed, sticks_moved, arming,
+                  CAUSE_SWITCH if self.fs_switch else CAUSE_NO_FRAMES, switch_stage2)
         if self.params.changed != self._configured_at and not arming.armed:
             self.configure()
 

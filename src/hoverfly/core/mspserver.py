@@ -227,7 +227,7 @@ class MspServer:
             modes |= 2
         elif m == MODE_HORIZON:
             modes |= 4
-        if f.params.get("airmode"):
+        if f.airmode_enabled:  # the AIRMODE box: the switch when one is set, else the parameter
             modes |= 8
         if f.failsafe.state != IDLE:
             modes |= 16

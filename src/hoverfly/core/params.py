@@ -20,6 +20,7 @@ TPA_MODES = ("pd", "d")
 ESTIMATORS = ("mahony", "external")
 FAILSAFE_PROCEDURES = ("drop", "land", "glide")
 ARM_SOURCES = ("range", "seed001")
+FS_SWITCH_MODES = ("stage1", "stage2", "kill")  # Betaflight failsafe_switch_mode
 
 # fmt: off
 #  name               default   min     max      unit           applies  help
@@ -106,6 +107,13 @@ PARAMS = (
     ("horizon_ch",           6,    0,      18,   "ch",          LIVE,   "horizon mode switch channel, 0 = none"),
     ("horizon_min_us",    1300,  900,    2100,   "us",          LIVE,   "horizon mode range start"),
     ("horizon_max_us",    1700,  900,    2100,   "us",          LIVE,   "horizon mode range end (takes priority over angle)"),
+    ("airmode_ch",           0,    0,      18,   "ch",          LIVE,   "air mode switch channel; 0 = none: the airmode parameter decides"),
+    ("airmode_min_us",    1700,  900,    2100,   "us",          LIVE,   "air mode range start (with airmode_ch set, air mode only in range)"),
+    ("airmode_max_us",    2100,  900,    2100,   "us",          LIVE,   "air mode range end"),
+    ("fs_switch_ch",         0,    0,      18,   "ch",          LIVE,   "failsafe test switch channel (Betaflight FAILSAFE box), 0 = none"),
+    ("fs_switch_min_us",  1700,  900,    2100,   "us",          LIVE,   "failsafe switch range start"),
+    ("fs_switch_max_us",  2100,  900,    2100,   "us",          LIVE,   "failsafe switch range end"),
+    ("fs_switch_mode", "stage1",   0,       0,   FS_SWITCH_MODES, LIVE, "failsafe switch: stage1 = as a lost receiver, stage2 = procedure now, kill = disarm"),
     # --- arming and failsafe
     ("disarm_frames",        5,    1,      50,   "frames",      LIVE,   "switch must read disarm this many frames in a row"),
     ("boot_grace_ms",     1000,    0,   30000,   "ms",          LIVE,   "no arming this long after boot"),

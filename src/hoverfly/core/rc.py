@@ -1,7 +1,9 @@
 """Pilot input: receiver channels in µs to sticks, throttle, switches and the setpoint.
 
 A new frame (`new_frame`) maps channels (AETR by default), applies the deadband and
-reads the AUX mode ranges (Betaflight style: channel plus µs range per mode). Every
+reads the AUX mode ranges (Betaflight style: channel plus µs range per mode, channel 0 =
+none): ARM, ANGLE, HORIZON and AIRMODE; the FAILSAFE box is read from the raw frame
+(`fs_switch_in`) before it is taken, because with it on the frame counts as lost. Every
 pass (`update`) smooths the sticks (rc_smooth_type: PT2 or PT1 at rc_smoothing_hz, or
 seed 001's alpha-beta; throttle_norm is the raw stick or, with thr_mode = bands, seed
 001's DESCEND/HOVERING/CLIMB value for the stick's third) and turns them into the
@@ -45,10 +47,14 @@ class RcInput:
         self.throttle_us = 1000
         self.arm_switch = False
         self.mode = MODE_ACRO
+        self.airmode_box = False  # an AIRMODE channel is set: the switch, not the airmode parameter, decides
+        self.airmode_switch = False
         self.frames = 0
         self._arm = (5, 1700, 2100)
         self._angle = (6, 1300, 2100)
         self._horizon = (6, 1300, 1700)
+        self._airmode = (0, 1700, 2100)
+        self._fs_switch = (0, 1700, 2100)
         self._smooth_type = "pt2"
         self._thr_bands = None  # seed 001: (DESCEND, HOVERING, CLIMB) µs, or None for the raw stick
 
@@ -84,6 +90,20 @@ class RcInput:
         self._arm = (params.get("arm_ch"), params.get("arm_min_us"), params.get("arm_max_us"))
         self._angle = (params.get("angle_ch"), params.get("angle_min_us"), params.get("angle_max_us"))
         self._horizon = (params.get("horizon_ch"), params.get("horizon_min_us"), params.get("horizon_max_us"))
+        self._airmode = (params.get("airmode_ch"), params.get("airmode_min_us"), params.get("airmode_max_us"))
+        self.airmode_box = self._airmode[0] > 0
+        self._fs_switch = (params.get("fs_switch_ch"), params.get("fs_switch_min_us"), params.get("fs_switch_max_us"))
+
+    def set_arm_range(self, ch, min_us, max_us):
+        """Arm when channel `ch` (1-based, 0 = never) reads min_us <= µs < max_us. configure()
+        sets it from arm_ch/arm_min_us/arm_max_us; an arm source with its own rule (seed 001:
+        above 1500 µs) sets it after that."""
+        self._arm = (ch, min_us, max_us)
+
+    def fs_switch_in(self, channels_us):
+        """True when the failsafe switch (fs_switch_ch, 0 = none) is in range in this raw frame."""
+        f = self._fs_switch
+        return _in_range(channels_us, f[0], f[1], f[2])
 
     def _stick(self, us, deadband):
         d = us - 1500
@@ -124,6 +144,8 @@ class RcInput:
             self.mode = MODE_ANGLE
         else:
             self.mode = MODE_ACRO
+        m = self._airmode
+        self.airmode_switch = _in_range(channels_us, m[0], m[1], m[2])
         self.frames += 1
 
     def throttle_low(self):

@@ -20,12 +20,14 @@ from hoverfly.core.events import (
     EV_AUTOPILOT_DISABLED,
     EV_AUTOPILOT_OVERRIDE,
     EV_DISARMED,
+    EV_FAILSAFE_STAGE1,
     EV_FAILSAFE_STAGE2,
     EV_IMU_FAULT,
     EV_MODE,
+    EV_RX_LOST,
     EVENT_NAMES,
 )
-from hoverfly.core.failsafe import FAULT_NAMES, PROCEDURES
+from hoverfly.core.failsafe import CAUSES, FAULT_NAMES, PROCEDURES
 from hoverfly.core.flight import Flight
 from hoverfly.core.mixer import MIXER_TABLES
 from hoverfly.core.params import Params
@@ -41,7 +43,8 @@ from hoverfly.sim.sensors import ImuModel
 _DEG = 180.0 / math.pi
 # event -> words for its detail code (the events the safety code records with a reason)
 DETAIL_NAMES = {EV_ARMED: SOURCE_NAMES, EV_AUTOPILOT_OVERRIDE: OVERRIDE_NAMES, EV_AUTOPILOT_DISABLED: DISABLED_NAMES,
-                EV_FAILSAFE_STAGE2: PROCEDURES, EV_IMU_FAULT: ("no_samples",) + FAULT_NAMES[1:]}
+                EV_FAILSAFE_STAGE2: PROCEDURES, EV_IMU_FAULT: ("no_samples",) + FAULT_NAMES[1:],
+                EV_RX_LOST: CAUSES, EV_FAILSAFE_STAGE1: CAUSES}
 
 
 def build_params(airframe, scenario, overrides):
@@ -182,6 +185,20 @@ class SimRun:
 
     # ------------------------------------------------------------------- run
     def run(self):
+        """Fly the scenario; the log and the firmware process are closed however the flight ends
+        (an exception, Ctrl-C, a server's stop), so everything logged before it stays readable."""
+        try:
+            return self._run()
+        finally:
+            self.close()
+
+    def close(self):
+        if self.log is not None:
+            self.log.close()
+        if self.firmware != "cpython":
+            self.firmware_stats = self.flight.close()
+
+    def _run(self):
         v = self.vehicle
         board = self.board
         flight = self.flight
@@ -314,10 +331,7 @@ class SimRun:
                 if lag > 0:
                     time.sleep(lag)
         wall = perf() - wall0
-        if self.log is not None:
-            self.log.close()
-        if self.firmware != "cpython":
-            self.firmware_stats = self.flight.close()
+        self.close()
         for meter in steps_open.values():
             steps_done.append(meter)
         steps_done.sort(key=lambda m: m.t0_s)
@@ -490,6 +504,8 @@ class SimRun:
             self.companion.set(ev["msp_rc"], t)
         if "config_session" in ev:
             self.flight.config_session = ev["config_session"]
+        if "channel" in ev:  # an AUX switch (or any channel) set by hand: {ch = 1-based, us = pulse}
+            p.overrides_us[ev["channel"]["ch"] - 1] = ev["channel"]["us"]
         if "set" in ev:
             for name, value in ev["set"].items():
                 err = self.params.set(name, value)

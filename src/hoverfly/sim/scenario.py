@@ -25,7 +25,9 @@ Keys an `[[at]]` entry may hold (several at once):
     positive; throttle 0..1; arm (bool); rate_hz; channels}: a companion computer sends MSP
     SET_RAW_RC at rate_hz from now on, flying the throttle itself with hold_altitude_m; false: it
     falls silent), config_session (0..7: open
-    configuration sessions, 1 CLI, 2 MSP, 4 maintenance).
+    configuration sessions, 1 CLI, 2 MSP, 4 maintenance),
+    channel ({ch = 5..16, us = 800..2200}: hold that channel at that pulse width from now on,
+    e.g. an AUX mode switch; the pilot's own arm/mode switches are overridden too).
 """
 
 import pathlib
@@ -40,7 +42,7 @@ _EVENT_KEYS = {
     "t", "arm", "mode", "throttle", "throttle_us", "roll", "pitch", "yaw", "roll_us", "pitch_us", "yaw_us",
     "hold_altitude_m", "fly_to", "land", "step", "kick", "gust", "wind", "flip", "rx_lost", "imu_freeze",
     "set", "note", "stall_ms",
-    "imu_stuck", "autopilot_switch", "msp_rc", "config_session",
+    "imu_stuck", "autopilot_switch", "msp_rc", "config_session", "channel",
 }
 _MSP_RC_KEYS = ("roll", "pitch", "yaw", "throttle", "arm", "rate_hz", "channels", "hold_altitude_m")
 _MODES = ("acro", "angle", "horizon")
@@ -79,6 +81,13 @@ def _check_event(where, ev, duration_s):
         cs = ev["config_session"]
         if isinstance(cs, bool) or not isinstance(cs, int) or not 0 <= cs <= 7:
             raise UserError("%s: config_session must be 0..7 (1 CLI, 2 MSP, 4 maintenance)" % where)
+    if "channel" in ev:
+        c = ev["channel"]
+        if not isinstance(c, dict) or set(c) != {"ch", "us"}:
+            raise UserError("%s: channel must be a table {ch = 5..16, us = pulse width}" % where)
+        if isinstance(c["ch"], bool) or not isinstance(c["ch"], int) or not 5 <= c["ch"] <= 16:
+            raise UserError("%s: channel.ch must be a whole number 5..16 (AUX1 = 5)" % where)
+        _num(where, "channel.us", c["us"], 800, 2200)
     if "msp_rc" in ev and ev["msp_rc"] is not False:
         m = ev["msp_rc"]
         if not isinstance(m, dict):
