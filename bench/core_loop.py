@@ -2,28 +2,27 @@
 
 Runs under CPython and MicroPython; prints one JSON object:
 {runtime, us_per_pass, bytes_per_pass, passes}. Armed, angle mode: an MPU-6050 burst decoded
-by hand, filters, Mahony, commander, PIDs, mixer, DShot words (core.output.OutputEncoder), a
+decoded by the MPU-6050 driver, filters, Mahony, commander, PIDs, mixer, DShot words (core.output.OutputEncoder), a
 CRSF frame parsed every 4th pass, the scheduler's slow tasks included. bytes_per_pass from gc.mem_alloc() deltas
 with the GC disabled (0 on CPython).
 
     python3 bench/core_loop.py
-    MICROPYPATH=src:.frozen micropython -X heapsize=192k bench/core_loop.py
+    MICROPYPATH=src:.frozen micropython -X heapsize=320k bench/core_loop.py
 """
 
 import sys
 
 if sys.implementation.name == "micropython":
-    # Compiling the whole core from source at once fragments a 192 KB heap: compile the modules
+    # Compiling the whole core from source at once fragments a 320 KB heap: compile the modules
     # one at a time, leaves first, collecting in between (the device loads precompiled .mpy).
     import gc
 
-    for _name in ("params", "events", "filters", "control", "estimator", "mixer", "arming", "failsafe",
-                  "rc", "scheduler", "signals", "output", "receiver", "flight"):
+    for _name in ("drivers.orientation", "drivers.imu", "drivers.mpu6050", "core.params", "core.events",
+                  "core.filters", "core.control", "core.estimator", "core.mixer", "core.arming", "core.failsafe",
+                  "core.rc", "core.scheduler", "core.signals", "core.output", "core.receiver", "core.logger",
+                  "core.flight"):
         gc.collect()
-        try:
-            __import__("hoverfly.core." + _name)
-        except ImportError:
-            pass
+        __import__("hoverfly." + _name)
     gc.collect()
 
 from hoverfly.compat import (
@@ -37,24 +36,33 @@ from hoverfly.compat import (
 )
 from hoverfly.core.board import Board
 from hoverfly.core.flight import Flight
+from hoverfly.core.output import OutputEncoder
+from hoverfly.drivers.mpu6050 import MPU6050, WHO_AM_I_VALUE
+from hoverfly.drivers.orientation import Orientation
+from hoverfly.protocols.crsf import encode_rc_frame
 
-try:
-    from hoverfly.protocols.crsf import encode_rc_frame
-except ImportError:  # pragma: no cover - older trees
-    encode_rc_frame = None
-try:
-    from hoverfly.core.output import OutputEncoder
-except ImportError:  # pragma: no cover - older trees
-    OutputEncoder = None
 
-_GYRO_RAD_S = 3.141592653589793 / 180.0 / 16.4  # MPU-6050 at +-2000 deg/s: 16.4 LSB per deg/s
-_ACCEL_M_S2 = 9.80665 / 2048.0  # at +-16 g: 2048 LSB per g
+class BurstBus:
+    """An I2C bus with one MPU-6050 on it: WHO_AM_I answers, every other read gets `burst`."""
+
+    def __init__(self):
+        self.burst = bytes(14)
+
+    def readfrom_mem_into(self, address, register, buf):
+        if len(buf) == 1:
+            buf[0] = WHO_AM_I_VALUE
+        else:
+            buf[:] = self.burst
+
+    def writeto_mem(self, address, register, data):
+        pass
 
 
 def _burst(gx, gy, gz):
-    """An MPU-6050 burst (ACCEL_XOUT_H..GYRO_ZOUT_L, big-endian int16): level, slightly tilted."""
+    """An MPU-6050 burst (ACCEL_XOUT_H..GYRO_ZOUT_L, big-endian int16, chip axes: z up reads +1 g):
+    level, slightly tilted; the driver turns it into FRD (x, -y, -z)."""
     b = bytearray(14)
-    for k, v in ((0, 20), (1, -20), (2, -2008), (3, 0), (4, gx), (5, gy), (6, gz)):
+    for k, v in ((0, 20), (1, 20), (2, 2008), (3, 0), (4, gx), (5, -gy), (6, -gz)):
         v &= 0xFFFF
         b[2 * k] = v >> 8
         b[2 * k + 1] = v & 0xFF
@@ -62,7 +70,7 @@ def _burst(gx, gy, gz):
 
 
 class BenchBoard(Board):
-    """The pass's I/O as the device does it: an IMU burst decoded by hand, a CRSF frame from the
+    """The pass's I/O as the device does it: an IMU burst through the MPU-6050 driver, a CRSF frame from the
     receiver UART every 4th pass (the receiver task runs every 2nd), DShot words encoded per pass."""
 
     def __init__(self):
@@ -74,40 +82,20 @@ class BenchBoard(Board):
         self.frames = []
         for arm_us, roll_us in ((1000, 1500), (2000, 1500), (2000, 1507)):
             ch = [roll_us, 1500, 1400, 1500, arm_us, 2000] + [1500] * 10
-            self.frames.append(bytes(encode_rc_frame(ch)) if encode_rc_frame else b"")
-        self.encoder = OutputEncoder() if OutputEncoder else None
+            self.frames.append(bytes(encode_rc_frame(ch)))
+        self.encoder = OutputEncoder()
+        self.bus = BurstBus()
+        # The device's own driver decodes the burst (2000 deg/s, 16 g, as the rp2 board sets it).
+        self.imu = MPU6050(self.bus, Orientation(), delay_us=lambda us: None)
+        self.imu.configure()
 
     def now_us(self):
         return self.t
 
     def read_imu(self, gyro, accel):
         self.k += 1
-        b = self.bursts[self.k % 3]
-        v = (b[0] << 8) | b[1]
-        if v > 32767:
-            v -= 65536
-        accel[0] = v * _ACCEL_M_S2
-        v = (b[2] << 8) | b[3]
-        if v > 32767:
-            v -= 65536
-        accel[1] = v * _ACCEL_M_S2
-        v = (b[4] << 8) | b[5]
-        if v > 32767:
-            v -= 65536
-        accel[2] = v * _ACCEL_M_S2
-        v = (b[8] << 8) | b[9]
-        if v > 32767:
-            v -= 65536
-        gyro[0] = v * _GYRO_RAD_S
-        v = (b[10] << 8) | b[11]
-        if v > 32767:
-            v -= 65536
-        gyro[1] = v * _GYRO_RAD_S
-        v = (b[12] << 8) | b[13]
-        if v > 32767:
-            v -= 65536
-        gyro[2] = v * _GYRO_RAD_S
-        return True
+        self.bus.burst = self.bursts[self.k % 3]
+        return self.imu.read(gyro, accel)
 
     def read_rx(self, buf):
         self.polls += 1
@@ -120,12 +108,10 @@ class BenchBoard(Board):
         return n
 
     def configure_outputs(self, params, motor_count, servo_count):
-        if self.encoder is not None:
-            self.encoder.configure(params, motor_count, servo_count, self.t)
+        self.encoder.configure(params, motor_count, servo_count, self.t)
 
     def write_motors(self, out, n):
-        if self.encoder is not None:
-            self.encoder.write(out, n, self.t)
+        self.encoder.write(out, n, self.t)
 
 
 def run(passes):
@@ -144,7 +130,7 @@ def run(passes):
     assert f.arming.armed, "bench flight did not arm"
     # One pass at a time with the GC off, collecting between passes (untimed): the pass itself
     # is measured, as on the device where the collection runs in the loop's slack. (One pass:
-    # the core loaded from source leaves little of a 192 KB heap on the 64-bit VM.)
+    # the core loaded from source leaves little of a 320 KB heap on the 64-bit VM.)
     total_us = 0
     total_bytes = 0
     done = 0
