@@ -15,36 +15,27 @@ from struct import pack_into, unpack_from
 
 from hoverfly.compat import (
     IS_MICROPYTHON,
-    TICKS_PERIOD,
     collect_garbage,
     mem_free,
     print_exception,
-    ticks_add,
     ticks_diff,
     ticks_us,
 )
-from hoverfly.core.board import Board
+from hoverfly.core.board import BOOT_TICKS_US, SampledBoard
 from hoverfly.protocols import bridge as B
 
-# The firmware's clock starts 3 s before its own tick wrap (as the sim board's), so a
-# bridged flight crosses the wrap too, in the firmware's tick space (2**30 on rp2).
-BOOT_TICKS_US = TICKS_PERIOD - 3000000
 # Collect in the slack between answering a step and the next one arriving, and only when
 # the free heap drops below this: never inside the flight pass.
 GC_FREE_BYTES = 32768
 
 
-class BridgeBoard(Board):
+class BridgeBoard(SampledBoard):
     """The Board the bridged flight runs on: every input arrives in the step frame."""
 
     name = "bridge"
 
     def __init__(self):
-        self.sim_us = 0
-        self.gyro = array("f", [0.0, 0.0, 0.0])
-        self.accel = array("f", [0.0, 0.0, -9.80665])
-        self.quaternion = array("f", [1.0, 0.0, 0.0, 0.0])
-        self.imu_fresh = False
+        SampledBoard.__init__(self)
         self.battery_v = 0.0
         self.current_a = 0.0
         self.rx_buf = bytearray(B.MAX_PAYLOAD)
@@ -54,31 +45,6 @@ class BridgeBoard(Board):
         self.servo_norm = array("f", [0.0] * 4)
         self.servo_count = 0
         self.led = False
-
-    def now_us(self):
-        return ticks_add(BOOT_TICKS_US, self.sim_us)
-
-    def read_imu(self, gyro_rad_s, accel_m_s2):
-        if not self.imu_fresh:
-            return False
-        g = self.gyro
-        a = self.accel
-        gyro_rad_s[0] = g[0]
-        gyro_rad_s[1] = g[1]
-        gyro_rad_s[2] = g[2]
-        accel_m_s2[0] = a[0]
-        accel_m_s2[1] = a[1]
-        accel_m_s2[2] = a[2]
-        self.imu_fresh = False
-        return True
-
-    def read_attitude(self, q_out):
-        q = self.quaternion
-        q_out[0] = q[0]
-        q_out[1] = q[1]
-        q_out[2] = q[2]
-        q_out[3] = q[3]
-        return True
 
     def read_rx(self, buf):
         """The receiver bytes of this step into buf; their count (0 when none)."""

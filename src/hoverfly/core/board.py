@@ -4,6 +4,10 @@
 board it runs on. Values cross the seam in SI units in the body frame FRD.
 """
 
+from array import array
+
+from hoverfly.compat import TICKS_PERIOD, ticks_add
+
 
 class Board:
     name = "board"
@@ -88,3 +92,45 @@ class Board:
 
 SERIAL_CONFIG = 0
 SERIAL_MAINT = 1
+
+
+# A board fed from outside starts its clock 3 s before the tick wrap (2**30 on rp2), so every
+# simulated or bridged flight crosses the wrap.
+BOOT_TICKS_US = TICKS_PERIOD - 3000000
+
+
+class SampledBoard(Board):
+    """A board whose clock and IMU samples are pushed in from outside: the simulator's physics
+    (sim/board.py) or the firmware bridge's step frames (boards/bridge_fw.py)."""
+
+    def __init__(self):
+        self.sim_us = 0
+        self.gyro = array("f", [0.0, 0.0, 0.0])
+        self.accel = array("f", [0.0, 0.0, -9.80665])
+        self.quaternion = array("f", [1.0, 0.0, 0.0, 0.0])
+        self.imu_fresh = False
+
+    def now_us(self):
+        return ticks_add(BOOT_TICKS_US, self.sim_us)
+
+    def read_imu(self, gyro_rad_s, accel_m_s2):
+        if not self.imu_fresh:
+            return False
+        g = self.gyro
+        a = self.accel
+        gyro_rad_s[0] = g[0]
+        gyro_rad_s[1] = g[1]
+        gyro_rad_s[2] = g[2]
+        accel_m_s2[0] = a[0]
+        accel_m_s2[1] = a[1]
+        accel_m_s2[2] = a[2]
+        self.imu_fresh = False
+        return True
+
+    def read_attitude(self, q_out):
+        q = self.quaternion
+        q_out[0] = q[0]
+        q_out[1] = q[1]
+        q_out[2] = q[2]
+        q_out[3] = q[3]
+        return True

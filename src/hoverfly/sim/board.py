@@ -11,28 +11,21 @@ timer (`output_tick`) keeps the output failsafe.
 
 from array import array
 
-from hoverfly.compat import TICKS_PERIOD, ticks_add
-from hoverfly.core.board import Board
+from hoverfly.core.board import BOOT_TICKS_US, SampledBoard
 from hoverfly.core.output import OutputEncoder, dshot_speed_kbit
 from hoverfly.core.params import Params
 from hoverfly.protocols.pulsetrain import ReplyPulseDecoder, render_analog, render_dshot, render_reply
 from hoverfly.sim.esc import SimEsc, SimServo
 from hoverfly.sim.rxlink import RxLink
 
-# Start the board clock 3 s before the tick wrap, so every simulated flight crosses it.
-BOOT_TICKS_US = TICKS_PERIOD - 3_000_000
 _TELEMETRY_KEEP = 65536  # bytes of CRSF telemetry kept for tests and tools
 
 
-class SimBoard(Board):
+class SimBoard(SampledBoard):
     name = "sim"
 
     def __init__(self, motor_count, rx="crsf", rx_pwm_channels=6):
-        self.sim_us = 0
-        self.gyro = array("f", [0.0, 0.0, 0.0])
-        self.accel = array("f", [0.0, 0.0, -9.80665])
-        self.quaternion = array("f", [1.0, 0.0, 0.0, 0.0])
-        self.imu_fresh = False
+        SampledBoard.__init__(self)
         # Receiver wire: the pilot writes channels_us, the transmitter/receiver model turns them
         # into real frames (sim/rxlink.py); rx_alive is the scenario's switch for the radio link.
         self.channels_us = array("H", [1500] * 18)
@@ -47,29 +40,6 @@ class SimBoard(Board):
         self.current_a = 0.0
         self.led = False
         self.motor_writes = 0
-
-    def now_us(self):
-        return ticks_add(BOOT_TICKS_US, self.sim_us)
-
-    def read_imu(self, gyro_rad_s, accel_m_s2):
-        if not self.imu_fresh:
-            return False
-        g = self.gyro
-        a = self.accel
-        gyro_rad_s[0] = g[0]
-        gyro_rad_s[1] = g[1]
-        gyro_rad_s[2] = g[2]
-        accel_m_s2[0] = a[0]
-        accel_m_s2[1] = a[1]
-        accel_m_s2[2] = a[2]
-        self.imu_fresh = False
-        return True
-
-    def read_attitude(self, q_out):
-        q = self.quaternion
-        for i in range(4):
-            q_out[i] = q[i]
-        return True
 
     def read_rx(self, buf):
         link = self.rx_link
