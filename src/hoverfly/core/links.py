@@ -64,6 +64,7 @@ class ConfigLinks:
         self._buf = bytearray(_READ_BYTES)
         self.dropped_bytes = 0  # replies the port had no room for
         self._writers = (self._write_config, self._write_maint)
+        self._servers = ((SERIAL_CONFIG, self.config), (SERIAL_MAINT, self.maint))  # built once: no tuples per run
 
     def _write(self, port, data):
         n = len(data)
@@ -82,7 +83,7 @@ class ConfigLinks:
         buf = self._buf
         if self.storage is not None:  # the built-in test follows the storage: a good save clears it
             self.flight.bit.storage_ok = not self.storage.failed
-        for port, server in ((SERIAL_CONFIG, self.config), (SERIAL_MAINT, self.maint)):
+        for port, server in self._servers:
             for _ in range(4):  # at most 2 KiB per port per run: a flood cannot hog the task
                 n = board.serial_read(port, buf)
                 if n < 0:
