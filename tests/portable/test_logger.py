@@ -374,17 +374,41 @@ def test_array_copy_twins_write_each_arrays_float32_bytes_in_place():
         assert dst[0:5] == b"\xaa" * 5 and dst[17:22] == b"\xaa" * 5 and dst[68:] == b"\xaa" * 12
 
 
-def test_scalar_pack_plus_array_copy_writes_the_same_log_as_one_pack():
+def test_pass_record_scalar_pack_plus_copy_and_one_pack_write_the_same_log():
+    # The pass record (CPython: the signals live in the frame), the scalars packed then the arrays
+    # copied (the MicroPython path), and one pack of everything: byte-identical logs.
     logs = []
-    for copy in (None, copy_arrays_py, copy_arrays_viper):
-        if copy is None and logs:
-            continue
+    for record, copy in ((True, None), (False, None), (False, copy_arrays_py), (False, copy_arrays_viper)):
 
-        def setup(f, copy=copy):
+        def setup(f, copy=copy, record=record):
             f.logger.copy_arrays = copy
+            f.logger.record_path = record
 
         f, sink = _fly(30, setup=setup)
         assert f.logger._copy is copy
+        assert (f.logger._rv is not None) == (record and f.signals.record.backed)
         logs.append(bytes(sink.data))
+    assert len(logs) >= 2
     for log in logs[1:]:
         assert log == logs[0]
+
+
+def test_signals_logged_arrays_live_in_the_frame_where_the_runtime_can_view_bytes_as_floats():
+    from hoverfly.core.logframe import ARRAY_FIELDS, CAN_VIEW, FRAME_BYTES, array_table, frame_format
+    from hoverfly.core.signals import Signals
+
+    assert FRAME_BYTES == struct.calcsize(frame_format())
+    s = Signals()
+    rec = s.record
+    assert rec.backed == CAN_VIEW
+    assert s.accel_raw_m_s2[2] == struct.unpack("<f", struct.pack("<f", -9.80665))[0]
+    assert s.attitude.q[0] == 1.0
+    arrays = (s.attitude.q, s.gyro_rad_s, s.setpoint.rate_rad_s, s.motor_out, s.gyro_raw_rad_s,
+              s.accel_raw_m_s2, s.torque_norm)
+    table = array_table()
+    for k in range(len(arrays)):
+        assert len(arrays[k]) == ARRAY_FIELDS[k][1]
+        arrays[k][len(arrays[k]) - 1] = 0.5 + k
+        if rec.backed:  # the stage's write is the frame's bytes
+            off = table[2 * k] + table[2 * k + 1] - 4
+            assert struct.unpack_from("<f", rec.buf, off)[0] == 0.5 + k

@@ -117,6 +117,7 @@ class Flight:
         self._first_imu = True
         self.overloaded = False
         self.pass_us = 0
+        self.pass_dt_us = 0  # ticks from the previous pass to this one (the logger's clock)
         self.scheduler.add("rx", 500, self.task_rx)
         self.scheduler.add("arming", 100, self.task_arming)
         self.scheduler.add("battery", 50, self.task_battery)
@@ -178,7 +179,9 @@ class Flight:
     def step(self, now_us):
         s = self.signals
         board = self.board
-        dt_s = ticks_diff(now_us, self._last_us) * 1e-6
+        dt_us = ticks_diff(now_us, self._last_us)
+        self.pass_dt_us = dt_us
+        dt_s = dt_us * 1e-6
         if dt_s <= 0.0:
             dt_s = 1.0 / self.loop_hz
         self._last_us = now_us

@@ -43,12 +43,18 @@ from hoverfly.core.events import (
     EV_RX_LOST,
     EVENT_NAMES,
 )
-from hoverfly.core.mixer import MAX_MOTORS
+from hoverfly.core.logframe import (
+    ARRAY_FIELDS,
+    FAST_PACK,
+    array_table,
+    field_offsets,
+    frame_format,
+    header_offsets,
+)
 from hoverfly.core.params import PARAMS
 from hoverfly.protocols.ulog import UlogWriter
 
 _SLOW_HZ = 10  # battery, status, loop and link topics
-_MAX_OUTPUTS = 16  # PX4 actuator_outputs.output[16]
 _RC_CHANNELS = 18  # PX4 input_rc.values[18]
 _U32_MAX = 0xFFFFFFFF
 # The frames of several passes are packed straight into one staging buffer and handed to the sink
@@ -99,11 +105,11 @@ SENSOR_COMBINED = (
 )
 HOVERFLY_PID = (
     ("uint64_t", "timestamp"),
+    ("float[3]", "sum"),
     ("float[3]", "p"),
     ("float[3]", "i"),
     ("float[3]", "d"),
     ("float[3]", "f"),
-    ("float[3]", "sum"),
     ("float", "tpa"),
     ("bool", "i_active"),
     ("bool", "airmode_active"),
@@ -182,19 +188,8 @@ FAST_TOPICS = ("vehicle_attitude", "vehicle_angular_velocity", "vehicle_rates_se
                "sensor_combined", "hoverfly_pid")
 SLOW_TOPICS = ("battery_status", "vehicle_status", "hoverfly_loop", "hoverfly_link")
 
-# The packing of each fast topic's D payload after its 5-byte header. An array signal goes in
-# whole as its raw bytes ('Ns' from tobytes): array('f') holds IEEE float32 in the host's order,
-# little-endian on every target (x86, ARM, RP2040) as ULog is, and one bytes argument costs far
-# less than N boxed floats. Constant zero fields are 'x' (the frame is zeroed once; CPython
-# writes the zeros again, MicroPython may skip them).
-_FAST_PACK = (
-    "Q16s17x",  # timestamp, q[4]; delta_q_reset and quat_reset_counter stay 0
-    "QQ12s12x",  # timestamp, timestamp_sample, xyz[3]; xyz_derivative stays 0
-    "Q12s8xfB",  # timestamp, roll, pitch, yaw, thrust_body = (0, 0, -throttle), reset_integral
-    "QI%ds%dx" % (4 * MAX_MOTORS, 4 * (_MAX_OUTPUTS - MAX_MOTORS)),  # timestamp, noutputs, output[]; rest 0
-    "Q12sI4x12sI4x",  # timestamp, gyro_rad, gyro_integral_dt, accelerometer_m_s2, accelerometer_integral_dt
-    "Q12f12sfBBB",  # timestamp, p[3] i[3] d[3] f[3], sum[3] = torque_norm, tpa, i_active, airmode, saturated
-)
+# The fast frame's layout (FAST_PACK, one struct format per topic after its header) lives in
+# core/logframe.py, with the pass record the signals' logged arrays live in where they can.
 _RC_PACK = "<5sQQiHH36sBBBBbf"  # values[18] as the raw bytes of an array('H') of 18
 _RC_PACK_VALUES = "<5sQQiHH18HBBBBbf"  # the same from 18 separate ints (any other channel source)
 
@@ -203,13 +198,18 @@ _RC_PACK_VALUES = "<5sQQiHH18HBBBBbf"  # the same from 18 separate ints (any oth
 _raw = getattr(array, "tobytes", bytes)
 
 
+def _raw_view(a):
+    """Raw bytes of an array or a memoryview (the signals' record views on CPython)."""
+    return a.tobytes()
+
+
 def copy_arrays_py(dst, base, table, srcs):
     """Each array of `srcs` as raw bytes into `dst` at base + table[2k] (table[2k + 1] bytes).
     The plain twin of logger_viper.copy_arrays."""
     for k in range(len(srcs)):
         off = base + table[2 * k]
         n = table[2 * k + 1]
-        dst[off : off + n] = _raw(srcs[k])[:n]
+        dst[off : off + n] = bytes(srcs[k])[:n]
 
 
 # On MicroPython the arrays are copied by a viper loop (no bytes object, no float boxed) after a
@@ -228,34 +228,6 @@ _LEVEL_INFO = 6
 _LEVEL_NOTICE = 5
 _LEVEL_WARNING = 4
 _LEVEL_ERROR = 3
-
-
-def _fast_format(gaps=False):
-    """The frame's struct format; with gaps the arrays' bytes are skipped ('Nx') for a copy."""
-    fmt = "<"
-    for p in _FAST_PACK:
-        fmt += "5s" + (p.replace("s", "x") if gaps else p)
-    return fmt
-
-
-def _array_table():
-    """(offset in the frame, byte count) of each array field, in frame order, as array('H')."""
-    table = array("H")
-    off = 0
-    for p in _FAST_PACK:
-        off += 5
-        count = ""
-        for c in p:
-            if "0" <= c <= "9":
-                count += c
-                continue
-            n = int(count) if count else 1
-            if c == "s":
-                table.append(off)
-                table.append(n)
-            off += struct.calcsize("<%d%s" % (n, c))
-            count = ""
-    return table
 
 
 def format_size(fields):
@@ -331,14 +303,17 @@ class Logger:
         self.param_changes = 0
         self.bytes = 0
         self.sys_name = "hoverfly"
-        self._fmt = _fast_format()
-        self._fmt_gaps = _fast_format(True)
-        self._table = _array_table()
+        self._fmt = frame_format()
+        self._fmt_gaps = frame_format(True)
+        self._table = array_table()
         self._srcs = ()
         # How the arrays reach the frame: None = as bytes arguments of the one pack_into, else
         # copy_arrays(stage, frame offset, table, arrays) after a pack of the scalars.
         self.copy_arrays = _copy_fast
         self._copy = None  # copy_arrays for this log, None if an array's size does not match
+        self._rawf = _raw
+        self.record_path = True  # use the signals' pass record where it is backed (tests turn it off)
+        self._rv = None
         self._fast_n = struct.calcsize(self._fmt)
         self._rc_n = struct.calcsize(_RC_PACK)
         self._stage = bytearray(STAGE_BYTES)
@@ -352,7 +327,6 @@ class Logger:
         self._ids = {}
         self._sink_free = None
         self._t64 = 0
-        self._last_now = 0
         self._slow_every = 100
         self._slow_left = 0
         self._ev_seen = 0
@@ -374,9 +348,6 @@ class Logger:
         self._pass_us = 1000  # 1 / loop_hz
         self._left_us = 0  # until the next logged pass, counted down by pass_us
         self._bound = None
-        self._rc = None
-        self._events = None
-        self._params = None
         self._rc_whole = False
 
     # ---------------------------------------------------------------- set-up
@@ -458,7 +429,7 @@ class Logger:
         self._receiver = rec if (rec is not None and hasattr(rec, "link_quality_pct")) else None
         headers = []
         for i in range(len(FAST_TOPICS)):
-            size = struct.calcsize("<" + _FAST_PACK[i])
+            size = struct.calcsize("<" + FAST_PACK[i])
             headers.append(struct.pack("<HBH", size + 2, 0x44, ids[FAST_TOPICS[i]]))
         self._rc_header = struct.pack("<HBH", struct.calcsize(_RC_PACK) - 3, 0x44, ids["input_rc"])
         # What the task reads every run, bound once: the stages fill these same objects in place.
@@ -467,19 +438,21 @@ class Logger:
         self._bound = (headers[0], headers[1], headers[2], headers[3], headers[4], headers[5],
                        sig.attitude.q, sig.gyro_rad_s, sig.setpoint.rate_rad_s, sig.motor_out,
                        sig.gyro_raw_rad_s, sig.accel_raw_m_s2, sig.torque_norm, c.roll, c.pitch, c.yaw,
-                       sig.setpoint, c, f.mixer)
-        self._rc = f.rc
-        self._events = f.events
-        self._params = f.params
+                       sig.setpoint, c, f.mixer, f.rc, f.events, f.params)
         self._srcs = (sig.attitude.q, sig.gyro_rad_s, sig.setpoint.rate_rad_s, sig.motor_out,
                       sig.gyro_raw_rad_s, sig.accel_raw_m_s2, sig.torque_norm)
         copy = self.copy_arrays
         for k in range(len(self._srcs)):
-            if len(_raw(self._srcs[k])) != self._table[2 * k + 1]:
+            if len(bytes(self._srcs[k])) != self._table[2 * k + 1]:
                 copy = None  # the copy would read past a short array: pack its bytes instead
         self._copy = copy
+        self._rv = self._record_views(getattr(sig, "record", None), headers)
+        self._rawf = _raw
+        for a in self._srcs:
+            if not isinstance(a, array):
+                self._rawf = _raw_view
         ch = sig.rc_channels_us
-        self._rc_whole = len(ch) == _RC_CHANNELS and len(_raw(ch)) == 2 * _RC_CHANNELS
+        self._rc_whole = len(ch) == _RC_CHANNELS and len(bytes(ch)) == 2 * _RC_CHANNELS
         # Log time is µs since Flight.start when the log was opened before it (from boot), else
         # it starts at 0 here (a tick difference over a long flight could wrap).
         t0 = 0
@@ -488,7 +461,6 @@ class Logger:
             if t0 < 0:
                 t0 = 0
         self._t64 = t0
-        self._last_now = now_us
         # Events and the receiver frame from before this first run (the boot pass) go in too.
         self._ev_seen = 0
         self._rc_seen = 0
@@ -496,10 +468,36 @@ class Logger:
         self._dropping = False
         w.maybe_sync(t0)
 
+    def _record_views(self, record, headers):
+        """The pass record path: when the signals' logged arrays are views into one frame-shaped
+        block (core/logframe.py), the headers go in once and every pass stores the scalars
+        through views and copies the block. None when they are not (MicroPython, or an array
+        replaced since): the frame is packed instead."""
+        if record is None or not record.backed or not self.record_path:
+            return None
+        for k in range(len(ARRAY_FIELDS)):
+            if not record.holds(ARRAY_FIELDS[k][0], self._srcs[k]):
+                return None
+        buf = record.buf
+        hs = header_offsets()
+        for k in range(len(hs)):
+            buf[hs[k] : hs[k] + len(headers[k])] = headers[k]
+        ts = [record.view(off, "Q") for off, n in field_offsets("Q")]
+        ints = [record.view(off, "I") for off, n in field_offsets("I")]
+        floats = field_offsets("f")  # thrust_body[2], then the PID block's 12 terms and tpa
+        flags = field_offsets("B")  # reset_integral, then i_active, airmode_active, saturated
+        return (buf, ts[0], ts[1], ts[2], ts[3], ts[4], ts[5], ts[6], record.view(floats[0][0], "f"),
+                record.view(flags[0][0], "B"), ints[0], ints[1], ints[2], floats[1][0])
+
     # ------------------------------------------------------------------ the pass
     def update(self, now_us):
         """One logged pass: Flight.step calls it last in the pass while `active`. Below the loop
         rate it counts passes down (in µs of the nominal period) and logs the due ones."""
+        f = self.flight
+        # Log time: the passes' own tick differences (Flight.step's pass_dt_us), summed in a plain
+        # int: one add here instead of another ticks_diff (a Python function on CPython).
+        t = self._t64 + f.pass_dt_us
+        self._t64 = t
         if not self._every_pass:
             left = self._left_us - self._pass_us
             if left > 0:
@@ -509,21 +507,38 @@ class Logger:
         if self.writer is None:
             self._begin(now_us)
             t = self._t64
-        else:
-            t = self._t64 + ticks_diff(now_us, self._last_now)
-            self._t64 = t
-            self._last_now = now_us
-        f = self.flight
-        raw = _raw
-        h0, h1, h2, h3, h4, h5, q, g, rs, mo, gr, ar, tq, r, p, y, sp, c, mixer = self._bound
+        (h0, h1, h2, h3, h4, h5, q, g, rs, mo, gr, ar, tq, r, p, y, sp, c, mixer, rc, events,
+         params) = self._bound
         dt_us = self._dt_us if f.imu_us == now_us else 0
         i_active = f.i_active
         off = self._off
         if off == 0:
             self._staged_t64 = t
-        if self._copy is None:
+        copy = self._copy
+        rv = self._rv
+        if rv is not None:
+            # The arrays are already in the record (the stages wrote them there): the scalars go in
+            # through views and by one pack of the PID block, then the record is the frame.
+            buf, v0, v1, v2, v3, v4, v5, v6, thrust_z, reset, nout, gdt, adt, pid_off = rv
+            v0[0] = t
+            v1[0] = t
+            v2[0] = t
+            v3[0] = t
+            v4[0] = t
+            v5[0] = t
+            v6[0] = t
+            thrust_z[0] = -sp.throttle_norm
+            reset[0] = 0 if i_active else 1
+            nout[0] = f.motor_count
+            gdt[0] = dt_us
+            adt[0] = dt_us
+            struct.pack_into("<12ffBBB", buf, pid_off, r.p, p.p, y.p, r.i, p.i, y.i, r.d, p.d, y.d, r.f, p.f, y.f,
+                             c.tpa, 1 if i_active else 0, 1 if f.airmode_active else 0, 1 if mixer.saturated else 0)
+            self._stage[off : off + self._fast_n] = buf
+        elif copy is None:
             # One C call packs the whole frame into the staging buffer (headers, the seven copies of
             # the timestamp, the PID terms); each array signal goes in as one bytes object.
+            raw = self._rawf
             struct.pack_into(
                 self._fmt, self._stage, off,
                 h0, t, raw(q),
@@ -531,7 +546,7 @@ class Logger:
                 h2, t, raw(rs), -sp.throttle_norm, 0 if i_active else 1,
                 h3, t, f.motor_count, raw(mo),
                 h4, t, raw(gr), dt_us, raw(ar), dt_us,
-                h5, t, r.p, p.p, y.p, r.i, p.i, y.i, r.d, p.d, y.d, r.f, p.f, y.f, raw(tq), c.tpa,
+                h5, t, raw(tq), r.p, p.p, y.p, r.i, p.i, y.i, r.d, p.d, y.d, r.f, p.f, y.f, c.tpa,
                 1 if i_active else 0, 1 if f.airmode_active else 0, 1 if mixer.saturated else 0,
             )
         else:
@@ -545,22 +560,23 @@ class Logger:
                 h5, t, r.p, p.p, y.p, r.i, p.i, y.i, r.d, p.d, y.d, r.f, p.f, y.f, c.tpa,
                 1 if i_active else 0, 1 if f.airmode_active else 0, 1 if mixer.saturated else 0,
             )
-            self._copy(self._stage, off, self._table, self._srcs)
+            copy(self._stage, off, self._table, self._srcs)
         off += self._fast_n
         self._staged += 1
-        rc = self._rc
         if rc.frames != self._rc_seen:
             self._rc_seen = rc.frames
             off = self._stage_rc(off, t)
         self._off = off
         if off > self._stage_last:
             self._flush()
-        if self._events.count != self._ev_seen:
+        if events.count != self._ev_seen:
             self._log_events(now_us, t)
-        if self._params.changed != self._par_seen:
+        if params.changed != self._par_seen:
             self._log_param_changes(t)
-        self._slow_left -= 1
-        if self._slow_left <= 0:
+        left = self._slow_left - 1
+        if left > 0:
+            self._slow_left = left
+        else:
             self._slow_left = self._slow_every
             self._log_slow(t)
 
