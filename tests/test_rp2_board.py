@@ -424,18 +424,20 @@ def test_analog_output_failsafe_holds_the_minimum_pulse(fakes):
     assert [fakes.pwm(p).duty_ns() for p in (10, 11, 12, 13)] == [125000] * 4
 
 
-def test_bidirectional_dshot_is_refused_as_an_output_fault(fakes):
-    # the transmit-only PIO program cannot serve bidirectional ESCs: a fault, and stop words
+def test_bidirectional_dshot_runs_the_receiving_program_without_a_fault(fakes):
+    # dshot_bidir=1 builds the bidirectional PIO program (tests/test_rp2_dshot_bidir.py tests
+    # it on the line): no output fault, and every word carries the inverted CRC
     from array import array
 
+    from hoverfly.protocols.dshot import frame_crc_ok
+
     b = _imu_board(fakes, dshot_bidir=1)
-    assert b.faults & 16
-    assert "dshot_bidir" in b.status_line()
+    assert not b.faults & 16, b.status_line()
+    assert b._dshot.bidir
     b.write_motors(array("f", [0.5] * 4), 4)
-    # stop (0) or a boot command (1..47, they go out while every motor is stopped): never throttle
-    assert all((sm.take()[-1] >> 16) >> 5 < 48 for sm in b._dshot.sms)
-    assert b.configure_outputs(_params(), 4, 0)  # reconfigured without it: the fault clears
-    assert not b.faults & 16
+    assert all(frame_crc_ok(sm.take()[-1] >> 16, True) for sm in b._dshot.sms)
+    assert b.configure_outputs(_params(), 4, 0)  # reconfigured without it: the transmit-only program
+    assert not b._dshot.bidir and not b.faults & 16
 
 
 def test_motor_telemetry_comes_back_in_motor_order(fakes):

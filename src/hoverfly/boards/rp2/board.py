@@ -420,21 +420,17 @@ class Rp2Board(Board):
             notes.append(enc.error)
         n = enc.motor_count
         self._output_fault = False
-        if enc.bidir:
-            # The PIO program here only transmits; a bidirectional ESC wants the inverted line
-            # and the inverted CRC, and would never arm on these frames anyway.
-            notes.append("dshot_bidir: no bidirectional DShot PIO program on rp2 yet")
-            self._output_fault = True
         if motor_count > lines:
             self._output_fault = True
-        key = (enc.protocol, n, enc.rate_hz, enc.servo_count, enc.servo_rate_hz)
+        # bidir picks the PIO program (inverted line + reply receiver, dshot_pio.py): a change rebuilds
+        key = (enc.protocol, n, enc.rate_hz, enc.servo_count, enc.servo_rate_hz, enc.bidir)
         try:
             if key != self._output_key:
                 self._stop_hardware()
                 if enc.dshot:
                     from hoverfly.boards.rp2.dshot_pio import DshotPio
 
-                    self._dshot = DshotPio(P.MOTORS[:n], enc.speed_kbit)
+                    self._dshot = DshotPio(P.MOTORS[:n], enc.speed_kbit, bidir=enc.bidir)
                 else:
                     for line in range(n):
                         self._pwms.append(machine.PWM(machine.Pin(P.MOTORS[line]), freq=enc.rate_hz,
@@ -530,9 +526,13 @@ class Rp2Board(Board):
             servos[i].duty_ns(int(enc.servo_us[i] * 1000.0))
 
     def read_motor_telemetry(self, codes, count):
-        """Bidirectional DShot replies, motor order: the PIO side keeps them per line."""
+        """Bidirectional DShot replies, motor order: the PIO side keeps them per line.
+
+        poll() drains the state machines' RX FIFOs without blocking; a line whose ESC did not
+        answer its last frame reads 0 (no start bit: the decoder counts it), counted in
+        `_dshot.missed`."""
         d = self._dshot
-        if d is None or not d.fresh:
+        if d is None or not d.poll():
             return False
         d.fresh = False
         replies = d.replies
