@@ -157,6 +157,10 @@ class _PidRef:
         return out, p, d, f
 
 
+def _f32(x):
+    return array("f", [x])[0]
+
+
 def test_rate_pid_equals_the_plain_formula_for_every_option():
     variants = ({}, {"tpa_mode": "pd", "iterm_relax": "rpy", "ff_static_pct": 30.0, "dterm_lpf1_type": "biquad"},
                 {"iterm_relax": "off", "dterm_lpf1_type": "pt2", "d_yaw": 0}, {"d_roll": 0, "f_roll": 0})
@@ -178,8 +182,9 @@ def test_rate_pid_equals_the_plain_formula_for_every_option():
                 out = pid.update(sp, gyro, dt, tpa, i_active, sat)
                 r_out, r_p, r_d, r_f = ref.update(sp, gyro, dt, tpa, i_active, sat)
                 assert out == r_out, (kw, axis, k)
-                assert pid.i == ref.i and pid.p == r_p and pid.f == r_f, (kw, axis, k)
-                assert pid.d == r_d or (pid.d == 0.0 and r_d == 0.0), (kw, axis, k)
+                # the terms as kept for the log and telemetry: float32 (the controller's array)
+                assert pid.i == ref.i and pid.p == _f32(r_p) and pid.f == _f32(r_f), (kw, axis, k)
+                assert pid.d == _f32(r_d) or (pid.d == 0.0 and r_d == 0.0), (kw, axis, k)
 
 
 def _mahony_ref(est, bias, q, gyro, accel, dt_s, armed):

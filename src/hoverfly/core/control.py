@@ -8,6 +8,7 @@ Horizon blends angle and rate by stick deflection. Step 4 of the pass.
 """
 
 import math
+from array import array
 
 from hoverfly.compat import const
 from hoverfly.core.pid import AxisPid
@@ -21,10 +22,14 @@ _DEG = math.pi / 180.0
 
 
 class Controller:
-    def __init__(self):
-        self.roll = AxisPid()
-        self.pitch = AxisPid()
-        self.yaw = AxisPid()
+    """`terms`: where the three axes put their P, I, D and F terms (p[3], i[3], d[3], f[3]; the
+    flight passes the signals' array, which the log records whole)."""
+
+    def __init__(self, terms=None):
+        self.terms = terms if terms is not None else array("f", [0.0] * 12)
+        self.roll = AxisPid(self.terms, 0)
+        self.pitch = AxisPid(self.terms, 1)
+        self.yaw = AxisPid(self.terms, 2)
         self.angle_gain = 5.0
         self.angle_ff = 0.5
         self.angle_rate_limit = 500.0 * _DEG

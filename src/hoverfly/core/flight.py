@@ -75,7 +75,7 @@ class Flight:
         self.external = ExternalAttitude()
         self.rc = RcInput()
         self.receiver = Receiver()
-        self.controller = Controller()
+        self.controller = Controller(self.signals.pid_terms)
         self.mixer = Mixer()
         self.output = OutputStage()
         self.arming = Arming(self.events)

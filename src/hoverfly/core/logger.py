@@ -348,6 +348,7 @@ class Logger:
         self._pass_us = 1000  # 1 / loop_hz
         self._left_us = 0  # until the next logged pass, counted down by pass_us
         self._bound = None
+        self._ctx = None
         self._rc_whole = False
 
     # ---------------------------------------------------------------- set-up
@@ -437,10 +438,10 @@ class Logger:
         c = f.controller
         self._bound = (headers[0], headers[1], headers[2], headers[3], headers[4], headers[5],
                        sig.attitude.q, sig.gyro_rad_s, sig.setpoint.rate_rad_s, sig.motor_out,
-                       sig.gyro_raw_rad_s, sig.accel_raw_m_s2, sig.torque_norm, c.roll, c.pitch, c.yaw,
-                       sig.setpoint, c, f.mixer, f.rc, f.events, f.params)
+                       sig.gyro_raw_rad_s, sig.accel_raw_m_s2, sig.torque_norm, c.terms)
+        self._ctx = (sig.setpoint, c, f.mixer, f.rc, f.events, f.params)
         self._srcs = (sig.attitude.q, sig.gyro_rad_s, sig.setpoint.rate_rad_s, sig.motor_out,
-                      sig.gyro_raw_rad_s, sig.accel_raw_m_s2, sig.torque_norm)
+                      sig.gyro_raw_rad_s, sig.accel_raw_m_s2, sig.torque_norm, c.terms)
         copy = self.copy_arrays
         for k in range(len(self._srcs)):
             if len(bytes(self._srcs[k])) != self._table[2 * k + 1]:
@@ -484,7 +485,7 @@ class Logger:
             buf[hs[k] : hs[k] + len(headers[k])] = headers[k]
         ts = [record.view(off, "Q") for off, n in field_offsets("Q")]
         ints = [record.view(off, "I") for off, n in field_offsets("I")]
-        floats = field_offsets("f")  # thrust_body[2], then the PID block's 12 terms and tpa
+        floats = field_offsets("f")  # thrust_body[2], tpa
         flags = field_offsets("B")  # reset_integral, then i_active, airmode_active, saturated
         return (buf, ts[0], ts[1], ts[2], ts[3], ts[4], ts[5], ts[6], record.view(floats[0][0], "f"),
                 record.view(flags[0][0], "B"), ints[0], ints[1], ints[2], floats[1][0])
@@ -507,18 +508,16 @@ class Logger:
         if self.writer is None:
             self._begin(now_us)
             t = self._t64
-        (h0, h1, h2, h3, h4, h5, q, g, rs, mo, gr, ar, tq, r, p, y, sp, c, mixer, rc, events,
-         params) = self._bound
+        sp, c, mixer, rc, events, params = self._ctx
         dt_us = self._dt_us if f.imu_us == now_us else 0
         i_active = f.i_active
         off = self._off
         if off == 0:
             self._staged_t64 = t
-        copy = self._copy
         rv = self._rv
         if rv is not None:
             # The arrays are already in the record (the stages wrote them there): the scalars go in
-            # through views and by one pack of the PID block, then the record is the frame.
+            # through views and one pack (tpa and the PID flags), then the record is the frame.
             buf, v0, v1, v2, v3, v4, v5, v6, thrust_z, reset, nout, gdt, adt, pid_off = rv
             v0[0] = t
             v1[0] = t
@@ -532,35 +531,11 @@ class Logger:
             nout[0] = f.motor_count
             gdt[0] = dt_us
             adt[0] = dt_us
-            struct.pack_into("<12ffBBB", buf, pid_off, r.p, p.p, y.p, r.i, p.i, y.i, r.d, p.d, y.d, r.f, p.f, y.f,
-                             c.tpa, 1 if i_active else 0, 1 if f.airmode_active else 0, 1 if mixer.saturated else 0)
+            struct.pack_into("<fBBB", buf, pid_off, c.tpa, 1 if i_active else 0, 1 if f.airmode_active else 0,
+                             1 if mixer.saturated else 0)
             self._stage[off : off + self._fast_n] = buf
-        elif copy is None:
-            # One C call packs the whole frame into the staging buffer (headers, the seven copies of
-            # the timestamp, the PID terms); each array signal goes in as one bytes object.
-            raw = self._rawf
-            struct.pack_into(
-                self._fmt, self._stage, off,
-                h0, t, raw(q),
-                h1, t, t, raw(g),
-                h2, t, raw(rs), -sp.throttle_norm, 0 if i_active else 1,
-                h3, t, f.motor_count, raw(mo),
-                h4, t, raw(gr), dt_us, raw(ar), dt_us,
-                h5, t, raw(tq), r.p, p.p, y.p, r.i, p.i, y.i, r.d, p.d, y.d, r.f, p.f, y.f, c.tpa,
-                1 if i_active else 0, 1 if f.airmode_active else 0, 1 if mixer.saturated else 0,
-            )
         else:
-            struct.pack_into(
-                self._fmt_gaps, self._stage, off,
-                h0, t,
-                h1, t, t,
-                h2, t, -sp.throttle_norm, 0 if i_active else 1,
-                h3, t, f.motor_count,
-                h4, t, dt_us, dt_us,
-                h5, t, r.p, p.p, y.p, r.i, p.i, y.i, r.d, p.d, y.d, r.f, p.f, y.f, c.tpa,
-                1 if i_active else 0, 1 if f.airmode_active else 0, 1 if mixer.saturated else 0,
-            )
-            copy(self._stage, off, self._table, self._srcs)
+            self._pack(off, t, dt_us, i_active, sp, c, mixer)
         off += self._fast_n
         self._staged += 1
         if rc.frames != self._rc_seen:
@@ -579,6 +554,38 @@ class Logger:
         else:
             self._slow_left = self._slow_every
             self._log_slow(t)
+
+    def _pack(self, off, t, dt_us, i_active, sp, c, mixer):
+        """The frame packed into the staging buffer at `off` (no pass record: MicroPython)."""
+        f = self.flight
+        h0, h1, h2, h3, h4, h5, q, g, rs, mo, gr, ar, tq, pt = self._bound
+        copy = self._copy
+        if copy is None:
+            # One C call packs the whole frame (headers, the seven copies of the timestamp, the
+            # scalars); each array signal goes in as one bytes object.
+            raw = self._rawf
+            struct.pack_into(
+                self._fmt, self._stage, off,
+                h0, t, raw(q),
+                h1, t, t, raw(g),
+                h2, t, raw(rs), -sp.throttle_norm, 0 if i_active else 1,
+                h3, t, f.motor_count, raw(mo),
+                h4, t, raw(gr), dt_us, raw(ar), dt_us,
+                h5, t, raw(tq), raw(pt), c.tpa,
+                1 if i_active else 0, 1 if f.airmode_active else 0, 1 if mixer.saturated else 0,
+            )
+        else:
+            struct.pack_into(
+                self._fmt_gaps, self._stage, off,
+                h0, t,
+                h1, t, t,
+                h2, t, -sp.throttle_norm, 0 if i_active else 1,
+                h3, t, f.motor_count,
+                h4, t, dt_us, dt_us,
+                h5, t, c.tpa,
+                1 if i_active else 0, 1 if f.airmode_active else 0, 1 if mixer.saturated else 0,
+            )
+            copy(self._stage, off, self._table, self._srcs)
 
     def flush(self):
         """Hand the staged frames to the sink now (close() and every other log write do this first)."""

@@ -11,6 +11,7 @@ multiplied by (180/pi)/1000.
 """
 
 import math
+from array import array
 
 from hoverfly.core.filters import LowPass, Pt1
 
@@ -24,7 +25,13 @@ _RELAX_THRESHOLD_RAD_S = 30.0 / _RAD_TO_DEG
 
 
 class AxisPid:
-    def __init__(self):
+    """One axis. The terms of the last pass go into `terms` (p[3], i[3], d[3], f[3] of the three
+    axes, this one at index `k`: the controller's shared array, which the flight log records whole);
+    `p`, `i`, `d`, `f` read them back."""
+
+    def __init__(self, terms=None, k=0):
+        self.terms = terms if terms is not None else array("f", [0.0] * 12)
+        self.k = k
         self.kp = 0.0
         self.ki = 0.0
         self.kd = 0.0
@@ -37,10 +44,7 @@ class AxisPid:
         self.relax = True
         self.relax_filter = Pt1()
         # state and the terms of the last pass (read by telemetry and logs)
-        self.i = 0.0
-        self.p = 0.0
-        self.d = 0.0
-        self.f = 0.0
+        self.i = 0.0  # the integrator's state
         self.error_rad_s = 0.0
         self.out = 0.0
         self._last_gyro = 0.0
@@ -70,11 +74,26 @@ class AxisPid:
         self._dt_s = 0.0
         self._inv_dt = 0.0
 
+    @property
+    def p(self):
+        return self.terms[self.k]
+
+    @property
+    def d(self):
+        return self.terms[self.k + 6]
+
+    @property
+    def f(self):
+        return self.terms[self.k + 9]
+
     def reset(self):
         self.i = 0.0
-        self.p = 0.0
-        self.d = 0.0
-        self.f = 0.0
+        t = self.terms
+        k = self.k
+        t[k] = 0.0
+        t[k + 3] = 0.0
+        t[k + 6] = 0.0
+        t[k + 9] = 0.0
         self.out = 0.0
         self.dterm_filter.reset(0.0)
 
@@ -135,9 +154,12 @@ class AxisPid:
         if self.k_static != 0.0:
             f += self.k_static * setpoint_rad_s
         self._last_setpoint = setpoint_rad_s
-        self.p = p
-        self.d = d
-        self.f = f
+        t = self.terms
+        k = self.k
+        t[k] = p
+        t[k + 3] = i
+        t[k + 6] = d
+        t[k + 9] = f
         out = p + i + d + f
         lim = self.sum_limit
         if out > lim:

@@ -47,6 +47,7 @@ class Signals:
         self.setpoint = Setpoint(rec)
         # 4. controller
         self.torque_norm = f("torque_norm", (0.0, 0.0, 0.0))
+        self.pid_terms = f("pid_terms", [0.0] * 12)  # p[3], i[3], d[3], f[3]: the controller's terms
         # 5. mixer and outputs
         self.motor_norm = array("f", [0.0] * MAX_MOTORS)  # mixer demand 0..1
         self.motor_out = f("motor_out", [0.0] * MAX_MOTORS)  # to the ESC: 0 = stop, idle..1 when armed
