@@ -22,9 +22,13 @@ def run_fly(args):
 
     if args.seed < 0:
         raise UserError("--seed must be 0 or more")
+    if args.hil and args.firmware != "cpython":
+        raise UserError("--hil runs the firmware on the device at the port: leave out --firmware")
+    if args.baud <= 0:
+        raise UserError("--baud must be a positive rate")
     result = fly(args.scenario, args.airframe, args.seed, _parse_set(args.set), args.duration, args.realtime,
                  firmware=args.firmware, micropython=args.micropython, rx=args.rx,
-                 esc=args.esc, log_path=args.log)
+                 esc=args.esc, log_path=args.log, hil=args.hil, baud=args.baud)
     if args.json:
         json.dump(result, sys.stdout)
         sys.stdout.write("\n")
@@ -77,6 +81,11 @@ def register(sub):
                    help="where the flight firmware runs: in this process, or under MicroPython over the bridge")
     p.add_argument("--micropython", metavar="PATH", default=None,
                    help="the MicroPython VM for --firmware micropython (default: micropython on PATH)")
+    p.add_argument("--hil", metavar="PORT", default=None,
+                   help="hardware in the loop: the firmware on a device at this serial port or pyserial URL "
+                        "(a Pico running boards/rp2/hil.py; docs/hil.md)")
+    p.add_argument("--baud", type=int, default=115200,
+                   help="baud rate for --hil (USB CDC ignores it; default 115200)")
     p.add_argument("--rx", choices=("crsf", "sbus", "ibus", "ppm", "pwm"), default="crsf",
                    help="receiver protocol on the simulated wire (default crsf: ExpressLRS 250 Hz)")
     p.add_argument("--esc", choices=PROTOCOLS, default="dshot600",

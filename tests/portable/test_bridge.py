@@ -80,3 +80,80 @@ def test_oversized_payload_is_refused():
     except ValueError:
         return
     raise AssertionError("expected ValueError")
+
+
+def test_frame_layout_sizes_match_their_formats():
+    from struct import calcsize
+
+    assert calcsize(B.STEP_FMT) == B.STEP_SIZE
+    assert calcsize(B.OUT_HEAD_FMT) == B.OUT_HEAD_SIZE
+    assert calcsize(B.EVENT_FMT) == B.EVENT_SIZE
+    assert calcsize(B.MSP_RC_HEAD_FMT) == B.MSP_RC_HEAD_SIZE
+    assert calcsize(B.RC_ANSWER_FMT) == B.RC_ANSWER_SIZE
+
+
+def test_every_kind_is_distinct():
+    kinds = list(B.KINDS)
+    for k in kinds:
+        assert kinds.count(k) == 1 and k != B.SYNC
+
+
+def test_hello_carries_the_protocol_version():
+    d = B.BridgeDecoder()
+    assert d.feed(B.frame(B.HELLO, B.VERSION.encode())) == 1
+    assert d.pop() == B.HELLO and d.text() == B.VERSION
+
+
+def test_zero_padding_finishes_a_half_sent_frame_and_the_next_frame_decodes():
+    # given a decoder left inside the longest frame (its sender died after the header)
+    d = B.BridgeDecoder()
+    d.feed(bytes([0xB5, B.STEP, B.MAX_PAYLOAD & 0xFF, B.MAX_PAYLOAD >> 8]))
+    # when the host pads with zeros, then says HELLO
+    d.feed(bytes(B.MAX_PAYLOAD + B.OVERHEAD + 1) + B.frame(B.HELLO, b"v"))
+    # then the half frame fails its CRC, the zeros left over are skipped, and HELLO arrives
+    assert d.crc_errors == 1 and d.resyncs == 5 and d.frames == 1
+    assert d.pop() == B.HELLO and d.text() == "v"
+
+
+def test_msp_rc_round_trips_through_the_decoder():
+    buf = bytearray(B.MAX_PAYLOAD + B.OVERHEAD)
+    ch = [1500, 1500, 1000, 1500, 2000, 1000, 1800, 1500]
+    n = B.put_msp_rc(buf, 2500000, ch, len(ch))
+    assert n == B.OVERHEAD + B.MSP_RC_HEAD_SIZE + 2 * len(ch)
+    d = B.BridgeDecoder()
+    assert d.feed(buf, n) == 1
+    assert d.pop() == B.MSP_RC
+    assert unpack_from(B.MSP_RC_HEAD_FMT, d.payload, 0) == (2500000, 8)
+    out = [0] * B.MAX_RC_CHANNELS
+    assert B.read_msp_rc(d.payload, d.length, out) == 8
+    assert out[:8] == ch
+    # little-endian u16 on the wire: 1500 = 0x05DC
+    assert d.payload[5] == 0xDC and d.payload[6] == 0x05
+
+
+def test_msp_rc_clamps_what_does_not_fit_the_wire():
+    buf = bytearray(B.MAX_PAYLOAD + B.OVERHEAD)
+    ch = [70000, -5] + [1500] * 20
+    n = B.put_msp_rc(buf, -1, ch, len(ch))
+    d = B.BridgeDecoder()
+    d.feed(buf, n)
+    d.pop()
+    out = [0] * B.MAX_RC_CHANNELS
+    assert B.read_msp_rc(d.payload, d.length, out) == B.MAX_RC_CHANNELS
+    assert out[0] == 0xFFFF and out[1] == 0
+    assert unpack_from("<I", d.payload, 0)[0] == 0
+
+
+def test_malformed_msp_rc_payloads_are_refused_not_raised():
+    out = [0] * B.MAX_RC_CHANNELS
+    assert B.read_msp_rc(b"\x00\x00", 2, out) == -1  # shorter than its head
+    assert B.read_msp_rc(b"\x00\x00\x00\x00\x04\xdc\x05", 7, out) == -1  # claims 4 channels, holds 1
+    assert B.read_msp_rc(b"\x00\x00\x00\x00\x13" + bytes(38), 43, out) == -1  # 19 > MSP's 18
+    assert B.read_msp_rc(b"\x00\x00\x00\x00\x02\xdc\x05\xe8\x03", 9, [0]) == -1  # more than out holds
+    assert B.read_msp_rc(b"\x00\x00\x00\x00\x00", 5, out) == 0
+
+
+def test_step_flags_carry_the_open_configuration_sessions():
+    flags = B.STEP_IMU_FRESH | ((2 | 4) & B.STEP_SESSION_MASK) << B.STEP_SESSION_SHIFT
+    assert flags & B.STEP_IMU_FRESH
+    assert (flags >> B.STEP_SESSION_SHIFT) & B.STEP_SESSION_MASK == 6

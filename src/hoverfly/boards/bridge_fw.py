@@ -2,8 +2,10 @@
 
 Takes bridge frames (protocols/bridge.py) on a byte stream — stdin when the simulator
 starts it as `micropython -m hoverfly.boards.bridge_fw` (or under CPython), USB serial
-on a real Pico for hardware-in-the-loop — and gives one OUT frame per STEP: the motor
-outputs the flight core wrote, the LED, status flags and new events. The flight core
+on a real Pico for hardware-in-the-loop (boards/rp2/hil.py) — and gives one OUT frame per
+STEP: the motor outputs the flight core wrote, the LED, status flags, the autopilot's state
+and new events; and one RC_ANSWER per MSP_RC (the companion computer's RC, handed to the
+flight's `on_msp_rc` as its MSP server would). The flight core
 runs unchanged on `BridgeBoard`, a Board whose IMU sample, receiver bytes, battery and
 clock come from the simulator each step. Portable (MicroPython and CPython); nothing is
 printed on the stream: status and errors go to stderr, or back as an ERROR frame.
@@ -16,6 +18,7 @@ from struct import pack_into, unpack_from
 from hoverfly.compat import (
     IS_MICROPYTHON,
     collect_garbage,
+    const,
     mem_free,
     print_exception,
     ticks_diff,
@@ -27,6 +30,7 @@ from hoverfly.protocols import bridge as B
 # Collect in the slack between answering a step and the next one arriving, and only when
 # the free heap drops below this: never inside the flight pass.
 GC_FREE_BYTES = 32768
+_SESSION_BITS = const(0x0E)  # B.STEP_SESSION_MASK << B.STEP_SESSION_SHIFT
 
 
 class BridgeBoard(SampledBoard):
@@ -45,6 +49,15 @@ class BridgeBoard(SampledBoard):
         self.servo_norm = array("f", [0.0] * 4)
         self.servo_count = 0
         self.led = False
+
+    def reset(self):
+        """As new, for the next session on a device that stayed up."""
+        self.sim_us = 0
+        self.imu_fresh = False
+        self.rx_len = 0
+        self.motor_count = 0
+        self.servo_count = 0
+        self.set_led(False)
 
     def read_rx(self, buf):
         """The receiver bytes of this step into buf; their count (0 when none)."""
@@ -91,6 +104,8 @@ class Firmware:
         self.params = Params()
         self.flight = None
         self.out = bytearray(B.MAX_PAYLOAD + B.OVERHEAD)
+        self.rc_channels_us = array("H", [0] * B.MAX_RC_CHANNELS)
+        self.msp_rc_frames = 0
         self.steps = 0
         self.gc_runs = 0
         self._ev_seen = 0
@@ -100,6 +115,10 @@ class Firmware:
         """Answer one frame: the number of bytes of the reply now in self.out."""
         if kind == B.STEP:
             return self.step(payload, length)
+        if kind == B.MSP_RC:
+            return self.msp_rc(payload, length)
+        if kind == B.HELLO:
+            return self.hello(bytes(payload[:length]).decode())
         if kind == B.PARAMS:
             return self._ack(self.set_params(bytes(payload[:length]).decode()))
         if kind == B.BOOT:
@@ -108,6 +127,20 @@ class Firmware:
             self.done = True
             return self._ack("")
         return self._error("unknown bridge frame kind %d" % kind)
+
+    def hello(self, host_version):
+        """A new session: forget the parameters and flight of any earlier one (a device
+        stays up between host runs); answer with this end's protocol version."""
+        from hoverfly.core.params import Params
+
+        self.flight = None
+        self.params = Params()
+        self.board.reset()
+        self._ev_seen = 0
+        self.steps = 0
+        self.msp_rc_frames = 0
+        collect_garbage()
+        return B.encode(self.out, B.HELLO, B.VERSION.encode())
 
     def set_params(self, text):
         for line in text.split("\n"):
@@ -124,6 +157,8 @@ class Firmware:
 
         board = self.board
         board.sim_us = sim_us
+        self.flight = None
+        collect_garbage()  # an earlier session's flight, on a device that stayed up
         self.flight = Flight(board, self.params)
         self._ev_seen = 0
         self.flight.start(board.now_us())
@@ -138,6 +173,7 @@ class Firmware:
             return self._error("short STEP frame (%d bytes)" % length)
         v = unpack_from(B.STEP_FMT, payload, 0)
         board.sim_us = v[0]
+        flight.config_session = (v[1] & _SESSION_BITS) >> B.STEP_SESSION_SHIFT
         if v[1] & B.STEP_IMU_FRESH:
             g = board.gyro
             a = board.accel
@@ -170,14 +206,39 @@ class Firmware:
         self.steps += 1
         return self._reply(pass_us)
 
-    def _reply(self, pass_us):
+    def msp_rc(self, payload, length):
+        """The companion's MSP RC at the time it arrived: the flight takes or refuses it now."""
         flight = self.flight
+        if flight is None:
+            return self._error("MSP_RC before BOOT")
+        ch = self.rc_channels_us
+        count = B.read_msp_rc(payload, length, ch)
+        if count < 0:
+            return self._error("malformed MSP_RC frame (%d bytes)" % length)
         board = self.board
+        board.sim_us = unpack_from("<I", payload, 0)[0]
+        reason = flight.on_msp_rc(board.now_us(), ch, count)
+        self.msp_rc_frames += 1
         out = self.out
+        ap = flight.autopilot
+        pack_into(B.RC_ANSWER_FMT, out, B.HEADER, self._flags(), ap.state, ap.privilege())
+        p = B.HEADER + B.RC_ANSWER_SIZE
+        if reason:
+            text = reason.encode()
+            n = len(text)
+            if n > B.MAX_PAYLOAD - B.RC_ANSWER_SIZE:
+                n = B.MAX_PAYLOAD - B.RC_ANSWER_SIZE
+            for i in range(n):
+                out[p + i] = text[i]
+            p += n
+        return B.finish(out, B.RC_ANSWER, p - B.HEADER)
+
+    def _flags(self):
+        flight = self.flight
         flags = 0
         if flight.arming.armed:
             flags |= B.OUT_ARMED
-        if board.led:
+        if self.board.led:
             flags |= B.OUT_LED
         if flight.imu_ok:
             flags |= B.OUT_IMU_OK
@@ -185,6 +246,13 @@ class Firmware:
             flags |= B.OUT_RX_OK
         if flight.calibration.calibrated:
             flags |= B.OUT_CALIBRATED
+        return flags
+
+    def _reply(self, pass_us):
+        flight = self.flight
+        board = self.board
+        out = self.out
+        flags = self._flags()
         n = board.motor_count
         m = board.servo_count
         if pass_us > 65535:
@@ -192,7 +260,8 @@ class Firmware:
         elif pass_us < 0:
             pass_us = 0
         p = B.HEADER
-        pack_into(B.OUT_HEAD_FMT, out, p, flags, n, m, pass_us)
+        ap = flight.autopilot
+        pack_into(B.OUT_HEAD_FMT, out, p, flags, n, m, pass_us, ap.state, ap.privilege())
         p += B.OUT_HEAD_SIZE
         mo = board.motor_out
         for i in range(n):

@@ -13,12 +13,22 @@ payload. All fields little-endian. `BridgeDecoder.feed` takes any chunking, resy
 garbage and counts (frames, crc_errors, length_errors, resyncs); it never raises.
 
 Kinds and payloads:
+- HELLO host->fw  text VERSION: start a new session (the firmware forgets any parameters and
+  flight of an earlier one); the firmware answers HELLO with its own VERSION.
 - BOOT  host->fw  u32 sim_us: build the flight with the parameters sent so far and start it.
 - PARAMS host->fw text `name=value` lines; the firmware answers ACK with "" or the refusal.
 - STEP  host->fw  STEP_FMT (sim_us, flags, gyro xyz rad/s, accel xyz m/s², attitude
   quaternion w x y z of an IMU's own fusion, battery V, A) then the receiver's bytes.
-- OUT   fw->host  OUT_HEAD_FMT (flags, motors n, servos m, firmware pass µs), n + m f32
-  (motor_out, servo_norm), 4 f32 attitude quaternion, u8 k, k events EVENT_FMT.
+  flags: STEP_IMU_FRESH, and the open configuration sessions (flight.config_session,
+  1 CLI, 2 MSP, 4 maintenance) in bits 1..3.
+- OUT   fw->host  OUT_HEAD_FMT (flags, motors n, servos m, firmware pass µs, autopilot
+  state, autopilot privilege bits), n + m f32 (motor_out, servo_norm), 4 f32 attitude
+  quaternion, u8 k, k events EVENT_FMT.
+- MSP_RC host->fw MSP_RC_HEAD_FMT (sim_us when it arrived, count) then count u16 channel
+  pulses µs (at most MAX_RC_CHANNELS, MSP SET_RAW_RC's limit): the companion computer's MSP
+  RC, handed to flight.on_msp_rc at once; answered by RC_ANSWER.
+- RC_ANSWER fw->host RC_ANSWER_FMT (OUT flags, autopilot state, privilege bits) then the
+  refusal as text ("" = taken).
 - QUIT  host->fw  end; the firmware answers ACK and exits.
 - ACK   fw->host  text ("" = ok).
 - ERROR fw->host  text: the firmware failed (its exception, one line).
@@ -41,10 +51,17 @@ OUT = const(0x4D)  # 'M'
 QUIT = const(0x51)  # 'Q'
 ACK = const(0x41)  # 'A'
 ERROR = const(0x45)  # 'E'
-KINDS = (BOOT, PARAMS, STEP, OUT, QUIT, ACK, ERROR)
+HELLO = const(0x48)  # 'H'
+MSP_RC = const(0x52)  # 'R'
+RC_ANSWER = const(0x43)  # 'C'
+KINDS = (BOOT, PARAMS, STEP, OUT, QUIT, ACK, ERROR, HELLO, MSP_RC, RC_ANSWER)
+# Both ends say which frames they speak; a new field or kind bumps it.
+VERSION = "hoverfly-bridge 2"
 
 # STEP flags
 STEP_IMU_FRESH = const(0x01)  # a new IMU sample is in this step
+STEP_SESSION_SHIFT = const(1)  # flight.config_session (3 bits) sits above the IMU flag
+STEP_SESSION_MASK = const(0x07)
 STEP_FMT = "<IB6f4f2f"
 STEP_SIZE = const(53)  # struct.calcsize(STEP_FMT); receiver bytes follow
 
@@ -54,11 +71,17 @@ OUT_LED = const(0x02)
 OUT_IMU_OK = const(0x04)
 OUT_RX_OK = const(0x08)
 OUT_CALIBRATED = const(0x10)
-OUT_HEAD_FMT = "<BBBH"
-OUT_HEAD_SIZE = const(5)
+OUT_HEAD_FMT = "<BBBHBB"
+OUT_HEAD_SIZE = const(7)
 EVENT_FMT = "<iBi"  # time (µs since boot, sim clock), event code, detail
 EVENT_SIZE = const(9)
 MAX_EVENTS = const(32)  # per OUT frame; more wait for the next step
+
+MSP_RC_HEAD_FMT = "<IB"  # sim_us, channel count; count u16 pulses follow
+MSP_RC_HEAD_SIZE = const(5)
+MAX_RC_CHANNELS = const(18)  # protocols/msp.py unpacks at most 18 from a SET_RAW_RC
+RC_ANSWER_FMT = "<BBB"  # OUT flags, autopilot state, privilege bits; the refusal text follows
+RC_ANSWER_SIZE = const(3)
 
 _CRC = CRC8_DVB_S2_TABLE
 
@@ -117,6 +140,48 @@ def put_event(buf, p, t_us, event, detail):
         t_us = -0x80000000
     pack_into(EVENT_FMT, buf, p, t_us, event & 0xFF, detail)
     return p + EVENT_SIZE
+
+
+def put_msp_rc(buf, sim_us, channels_us, count):
+    """An MSP_RC frame in buf; total length. At most MAX_RC_CHANNELS go (the rest are not
+    sent, as MSP's own parser drops them); pulses are clamped to 0..65535 and the time to u32."""
+    if count > MAX_RC_CHANNELS:
+        count = MAX_RC_CHANNELS
+    if count > len(channels_us):
+        count = len(channels_us)
+    if count < 0:
+        count = 0
+    if sim_us < 0:
+        sim_us = 0
+    elif sim_us > 0xFFFFFFFF:
+        sim_us = 0xFFFFFFFF
+    pack_into(MSP_RC_HEAD_FMT, buf, HEADER, sim_us, count)
+    p = HEADER + MSP_RC_HEAD_SIZE
+    for i in range(count):
+        v = channels_us[i]
+        if v < 0:
+            v = 0
+        elif v > 0xFFFF:
+            v = 0xFFFF
+        buf[p] = v & 0xFF
+        buf[p + 1] = v >> 8
+        p += 2
+    return finish(buf, MSP_RC, p - HEADER)
+
+
+def read_msp_rc(payload, length, channels_us):
+    """The channels of an MSP_RC payload into channels_us; their count, or -1 when the
+    payload is short, claims more than MAX_RC_CHANNELS or more than channels_us holds."""
+    if length < MSP_RC_HEAD_SIZE:
+        return -1
+    count = payload[4]
+    if count > MAX_RC_CHANNELS or count > len(channels_us) or length < MSP_RC_HEAD_SIZE + 2 * count:
+        return -1
+    p = MSP_RC_HEAD_SIZE
+    for i in range(count):
+        channels_us[i] = payload[p] | (payload[p + 1] << 8)
+        p += 2
+    return count
 
 
 _HUNT = const(0)

