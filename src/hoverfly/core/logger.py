@@ -487,8 +487,9 @@ class Logger:
         ints = [record.view(off, "I") for off, n in field_offsets("I")]
         floats = field_offsets("f")  # thrust_body[2], tpa
         flags = field_offsets("B")  # reset_integral, then i_active, airmode_active, saturated
-        return (buf, ts[0], ts[1], ts[2], ts[3], ts[4], ts[5], ts[6], record.view(floats[0][0], "f"),
-                record.view(flags[0][0], "B"), ints[0], ints[1], ints[2], floats[1][0])
+        return (self._stage, buf, ts[0], ts[1], ts[2], ts[3], ts[4], ts[5], ts[6], record.view(floats[0][0], "f"),
+                record.view(flags[0][0], "B"), ints[0], ints[1], ints[2], record.view(floats[1][0], "f"),
+                record.view(flags[1][0], "B", 3))
 
     # ------------------------------------------------------------------ the pass
     def update(self, now_us):
@@ -517,8 +518,8 @@ class Logger:
         rv = self._rv
         if rv is not None:
             # The arrays are already in the record (the stages wrote them there): the scalars go in
-            # through views and one pack (tpa and the PID flags), then the record is the frame.
-            buf, v0, v1, v2, v3, v4, v5, v6, thrust_z, reset, nout, gdt, adt, pid_off = rv
+            # through views, then the record is the frame.
+            stage_copy, buf, v0, v1, v2, v3, v4, v5, v6, thrust_z, reset, nout, gdt, adt, tpa, flags = rv
             v0[0] = t
             v1[0] = t
             v2[0] = t
@@ -531,9 +532,11 @@ class Logger:
             nout[0] = f.motor_count
             gdt[0] = dt_us
             adt[0] = dt_us
-            struct.pack_into("<fBBB", buf, pid_off, c.tpa, 1 if i_active else 0, 1 if f.airmode_active else 0,
-                             1 if mixer.saturated else 0)
-            self._stage[off : off + self._fast_n] = buf
+            tpa[0] = c.tpa
+            flags[0] = 1 if i_active else 0
+            flags[1] = 1 if f.airmode_active else 0
+            flags[2] = 1 if mixer.saturated else 0
+            stage_copy[off : off + self._fast_n] = buf
         else:
             self._pack(off, t, dt_us, i_active, sp, c, mixer)
         off += self._fast_n
