@@ -9,7 +9,8 @@ every batch, drain included), log_us_per_pass (the median over all rounds of the
 between a batch with logging and the batch without it run just before: a shared host slows
 whole stretches, and a paired difference cancels them), log_pct (log_us_per_pass against the
 pass without logging, goal <= 10 on CPython), log_us_best_diff (the difference of the two fastest
-batches, the older figure), log_us_mean (the difference over all batches), task_us (Logger.update timed alone, ring drain and wrap included) and bytes_per_s written; on
+batches, the older figure), log_us_mean (the difference over all batches), task_us
+(Logger.update timed alone, ring drain and wrap included) and bytes_per_s written; on
 MicroPython also alloc_off/alloc_on, heap bytes allocated per pass without and with logging. Best
 of several runs, armed, angle mode, a CRSF frame every 4th pass.
 """
