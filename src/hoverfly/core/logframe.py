@@ -103,9 +103,9 @@ class PassRecord:
     can view them (`backed`). `floats(name, init)` gives the array for ARRAY_FIELDS' `name`:
     a float view into `buf` when backed, else a plain array('f') of init's values."""
 
-    def __init__(self, backed=None):
+    def __init__(self):
         self.buf = bytearray(FRAME_BYTES)
-        self.backed = CAN_VIEW if backed is None else (backed and CAN_VIEW)
+        self.backed = CAN_VIEW
         table = array_table()
         self._offsets = {}
         for k in range(len(ARRAY_FIELDS)):

@@ -16,11 +16,13 @@ hoverfly_link about ten times a second. Events (arming, failsafe, modes) become 
 parameter changes become `P` messages after that run's samples, and a sync marker goes out
 about once a second.
 
-Cost: the fast topics are one struct.pack_into per run straight into a preallocated staging
-buffer (headers, timestamps and PID terms as values, each array signal as one bytes argument),
-input_rc is staged behind them, and the sink gets one write per batch (STAGE_BYTES; flush() or
-close() hand over the rest); the other topics run only when something changed. With no sink the
-pass skips the logger. Figures: docs/logs.md "Logging cost", bench/log_loop.py.
+Cost: on CPython the arrays the fast topics record live in the signals' pass record (core/
+logframe.py), laid out as the frame: a run stores the timestamps and scalars through views and
+copies the record into a preallocated staging buffer. Where there is no record (MicroPython) the
+frame is one struct.pack_into with each array as one bytes argument. input_rc is staged behind,
+and the sink gets one write per batch (STAGE_BYTES; flush() or close() hand over the rest); the
+other topics run only when something changed. With no sink the pass skips the logger.
+Figures: docs/logs.md "Logging cost", bench/log_loop.py.
 """
 
 import struct
@@ -347,7 +349,7 @@ class Logger:
         self._period_us = 1000  # 1 / blackbox_rate_hz
         self._pass_us = 1000  # 1 / loop_hz
         self._left_us = 0  # until the next logged pass, counted down by pass_us
-        self._bound = None
+        self._headers = None
         self._ctx = None
         self._rc_whole = False
 
@@ -436,9 +438,7 @@ class Logger:
         # What the task reads every run, bound once: the stages fill these same objects in place.
         sig = f.signals
         c = f.controller
-        self._bound = (headers[0], headers[1], headers[2], headers[3], headers[4], headers[5],
-                       sig.attitude.q, sig.gyro_rad_s, sig.setpoint.rate_rad_s, sig.motor_out,
-                       sig.gyro_raw_rad_s, sig.accel_raw_m_s2, sig.torque_norm, c.terms)
+        self._headers = tuple(headers)
         self._ctx = (sig.setpoint, c, f.mixer, f.rc, f.events, f.params)
         self._srcs = (sig.attitude.q, sig.gyro_rad_s, sig.setpoint.rate_rad_s, sig.motor_out,
                       sig.gyro_raw_rad_s, sig.accel_raw_m_s2, sig.torque_norm, c.terms)
@@ -448,10 +448,7 @@ class Logger:
                 copy = None  # the copy would read past a short array: pack its bytes instead
         self._copy = copy
         self._rv = self._record_views(getattr(sig, "record", None), headers)
-        self._rawf = _raw
-        for a in self._srcs:
-            if not isinstance(a, array):
-                self._rawf = _raw_view
+        self._rawf = _raw if isinstance(sig.gyro_rad_s, array) else _raw_view
         ch = sig.rc_channels_us
         self._rc_whole = len(ch) == _RC_CHANNELS and len(bytes(ch)) == 2 * _RC_CHANNELS
         # Log time is µs since Flight.start when the log was opened before it (from boot), else
@@ -561,7 +558,8 @@ class Logger:
     def _pack(self, off, t, dt_us, i_active, sp, c, mixer):
         """The frame packed into the staging buffer at `off` (no pass record: MicroPython)."""
         f = self.flight
-        h0, h1, h2, h3, h4, h5, q, g, rs, mo, gr, ar, tq, pt = self._bound
+        h0, h1, h2, h3, h4, h5 = self._headers
+        q, g, rs, mo, gr, ar, tq, pt = self._srcs
         copy = self._copy
         if copy is None:
             # One C call packs the whole frame (headers, the seven copies of the timestamp, the
