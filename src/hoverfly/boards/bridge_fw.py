@@ -18,7 +18,6 @@ from struct import pack_into, unpack_from
 from hoverfly.compat import (
     IS_MICROPYTHON,
     collect_garbage,
-    const,
     mem_free,
     print_exception,
     ticks_diff,
@@ -30,7 +29,6 @@ from hoverfly.protocols import bridge as B
 # Collect in the slack between answering a step and the next one arriving, and only when
 # the free heap drops below this: never inside the flight pass.
 GC_FREE_BYTES = 32768
-_SESSION_BITS = const(0x0E)  # B.STEP_SESSION_MASK << B.STEP_SESSION_SHIFT
 
 
 class BridgeBoard(SampledBoard):
@@ -173,7 +171,7 @@ class Firmware:
             return self._error("short STEP frame (%d bytes)" % length)
         v = unpack_from(B.STEP_FMT, payload, 0)
         board.sim_us = v[0]
-        flight.config_session = (v[1] & _SESSION_BITS) >> B.STEP_SESSION_SHIFT
+        flight.config_session = (v[1] >> B.STEP_SESSION_SHIFT) & B.STEP_SESSION_MASK
         if v[1] & B.STEP_IMU_FRESH:
             g = board.gyro
             a = board.accel
