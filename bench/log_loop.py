@@ -4,13 +4,16 @@ Run: `.venv/bin/python bench/log_loop.py` and
 `MICROPYPATH=src:.frozen .venv/bin/micropython -X heapsize=192k bench/log_loop.py`.
 Prints one JSON object: us_per_pass without and with logging (the fastest 20-pass batch of each;
 blackbox_rate_hz = loop_hz = 1000: every pass writes the six fast topics, input_rc on each
-receiver frame, the slow topics ten times a second; the ring drained to a counting writer after
-every batch, drain included), log_us_per_pass (the median over all rounds of the difference
+receiver frame, the slow topics ten times a second). The log goes where `hoverfly fly --log`
+sends it: on CPython through hoverfly.logs.writer.FileLog into a file (os.devnull), its drain()
+called after every pass as the simulator does (the ring written out a quarter at a time), file
+writes included; on MicroPython into a 24 KiB RingSink drained to a counting writer by the same
+rule. log_us_per_pass (the median over all rounds of the difference
 between a batch with logging and the batch without it run just before: a shared host slows
 whole stretches, and a paired difference cancels them), log_pct (log_us_per_pass against the
 pass without logging, goal <= 10 on CPython), log_us_best_diff (the difference of the two fastest
 batches, the older figure), log_us_mean (the difference over all batches), task_us
-(Logger.update timed alone, ring drain and wrap included) and bytes_per_s written; on
+(Logger.update and the drain timed alone) and bytes_per_s written; on
 MicroPython also alloc_off/alloc_on, heap bytes allocated per pass without and with logging. Best
 of several runs, armed, angle mode, a CRSF frame every 4th pass.
 """
@@ -33,6 +36,13 @@ from hoverfly.compat import IS_MICROPYTHON, collect_garbage, disable_gc, enable_
 from hoverfly.core.board import Board
 from hoverfly.core.flight import Flight
 from hoverfly.protocols.ulog import RingSink
+
+if IS_MICROPYTHON:  # no host log writer: a ring drained by the same rule (_RingLog)
+    FileLog = None
+else:
+    import os
+
+    from hoverfly.logs.writer import FileLog
 
 try:
     from hoverfly.protocols.crsf import encode_rc_frame
@@ -79,17 +89,22 @@ class _Board(Board):
         pass
 
 
-def _null(mv):
-    return None
+class _RingLog:
+    """FileLog's policy without a file (MicroPython): a ring drained a quarter at a time, counted."""
 
+    def __init__(self, flight):
+        self.ring = RingSink(24 * 1024)
+        self._threshold = self.ring.size // 4
+        self.bytes_written = 0
+        flight.logger.open(self.ring)
 
-class _Counter:
-    def __init__(self):
-        self.n = 0
-
-    def take(self, mv):
-        self.n += len(mv)
+    def _write(self, mv):
+        self.bytes_written += len(mv)
         return None
+
+    def drain(self, force=False):
+        if force or self.ring.used >= self._threshold:
+            self.ring.drain(self._write)
 
 
 def _flight(log_on):
@@ -99,20 +114,19 @@ def _flight(log_on):
     f.params.set("boot_grace_ms", 0)
     f.params.set("min_check", 1500)
     f.params.set("blackbox_rate_hz", 1000)
-    ring = None
+    log = None
     if log_on:
-        ring = RingSink(24 * 1024)
-        f.logger.open(ring)
+        log = FileLog(f, os.devnull) if FileLog is not None else _RingLog(f)
     f.start(0)
     t = 0
     for _ in range(2000):  # calibrate, arm
         t += 1000
         board.k += 1
         f.step(t)
-        if ring is not None and ring.used > 8192:
-            ring.drain(_null)
+        if log is not None:
+            log.drain()
     assert f.arming.armed, "bench flight did not arm"
-    return f, board, ring, t
+    return f, board, log, t
 
 
 def _batch(f, board, t):
@@ -124,14 +138,25 @@ def _batch(f, board, t):
     return ticks_diff(ticks_us(), t0), t
 
 
+def _batch_log(f, board, t, drain):
+    """_batch with the log written out after every pass, as the simulator does."""
+    t0 = ticks_us()
+    for _ in range(BATCH):
+        t += 1000
+        board.k += 1
+        f.step(t)
+        drain()
+    return ticks_diff(ticks_us(), t0), t
+
+
 def run_pair():
     """The same flight with and without logging, batch for batch in turn; the fastest batch of each
     (a busy host slows some batches, never speeds one up)."""
-    off = _flight(False)
-    on = _flight(True)
-    f0, b0, _, t0 = off
-    f1, b1, ring, t1 = on
-    counter = _Counter()
+    f0, b0, _, t0 = _flight(False)
+    f1, b1, log, t1 = _flight(True)
+    drain = log.drain
+    log.drain(True)
+    written0 = log.bytes_written
     best_off = None
     best_on = None
     sum_off = 0
@@ -143,35 +168,37 @@ def run_pair():
         us_off, t0 = _batch(f0, b0, t0)
         sum_off += us_off
         best_off = us_off if best_off is None or us_off < best_off else best_off
-        t_start = ticks_us()
-        us, t1 = _batch(f1, b1, t1)
-        ring.drain(counter.take)
-        us = ticks_diff(ticks_us(), t_start)
+        us, t1 = _batch_log(f1, b1, t1, drain)
         sum_on += us
         best_on = us if best_on is None or us < best_on else best_on
         diffs.append(us - us_off)
     passes = RUNS * PASSES
+    f1.logger.flush()
+    log.drain(True)
+    rate = (log.bytes_written - written0) / (passes / 1000.0)
     alloc = ""
     if IS_MICROPYTHON:  # heap bytes per pass, from one batch with the collector off
         per = []
-        for f, board, t in ((f0, b0, t0), (f1, b1, t1)):
+        for f, board, t, batch in ((f0, b0, t0, _batch), (f1, b1, t1, None)):
             collect_garbage()
             disable_gc()
             m0 = gc.mem_alloc()
-            _batch(f, board, t)
+            if batch is None:
+                _batch_log(f, board, t, drain)
+            else:
+                _batch(f, board, t)
             per.append((gc.mem_alloc() - m0) // BATCH)
             enable_gc()
-        ring.drain(counter.take)
         alloc = ', "alloc_off": %d, "alloc_on": %d' % (per[0], per[1])
     diffs.sort()
     median = diffs[len(diffs) // 2] / BATCH
-    return (best_off / BATCH, best_on / BATCH, median, (sum_on - sum_off) / passes, counter.n / (passes / 1000.0),
-            alloc)
+    return best_off / BATCH, best_on / BATCH, median, (sum_on - sum_off) / passes, rate, alloc
 
 
 def task_alone():
-    f, board, ring, t = _flight(True)
+    f, board, log, t = _flight(True)
     task = f.logger.update
+    drain = log.drain
     best = None
     for _ in range(RUNS):
         collect_garbage()
@@ -181,8 +208,8 @@ def task_alone():
             for _ in range(BATCH):
                 t += 1000
                 task(t)
+                drain()
             total += ticks_diff(ticks_us(), t0)
-            ring.drain(_null)
         us = total / PASSES
         best = us if best is None or us < best else best
     return best

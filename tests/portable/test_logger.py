@@ -4,22 +4,16 @@ Runs under pytest and MicroPython (tests/portable/mprun.py test_logger).
 """
 
 import struct
-from array import array
 
 from hoverfly.core.board import Board
 from hoverfly.core.flight import Flight
-from hoverfly.core.logger import FAST_TOPICS, FORMATS, STAGE_BYTES, copy_arrays_py, format_size
+from hoverfly.core.logger import FAST_TOPICS, FORMATS, STAGE_FRAMES, format_size
 from hoverfly.protocols.ulog import RingSink
 
 try:
     from hoverfly.protocols.crsf import encode_rc_frame
 except ImportError:  # pragma: no cover
     encode_rc_frame = None
-
-try:
-    from hoverfly.core.logger_viper import copy_arrays as copy_arrays_viper
-except (SyntaxError, ImportError, NameError):
-    copy_arrays_viper = None  # CPython, or a MicroPython without viper
 
 _PERIOD_US = 1000
 
@@ -295,6 +289,7 @@ def test_a_full_ring_drops_whole_frames_and_marks_the_gap():
     for _ in range(5):
         t += _PERIOD_US
         f.step(t)
+    f.logger.flush()  # the staged batch, which fits again
     ring.drain(take)
     samples = _parse(out)[2]
     assert len(samples["vehicle_attitude"]) == f.logger.frames
@@ -326,7 +321,7 @@ def _frame_bytes():
 def test_frames_go_out_in_batches_and_all_of_them_by_close():
     sink = _Writes()
     frame = _frame_bytes()
-    passes = 3 * (STAGE_BYTES // frame) + 2  # three full batches and a few staged frames
+    passes = 3 * STAGE_FRAMES + 2  # three full batches and a few staged frames
     f, _ = _fly(passes, sink=sink, flush=False)
     lg = f.logger
     assert 0 < lg.frames < passes  # the last passes' frames are still staged
@@ -336,7 +331,7 @@ def test_frames_go_out_in_batches_and_all_of_them_by_close():
     # several passes' frames per write, never more than the staging buffer
     batches = [n for n in sink.sizes if n % frame == 0 and n >= 2 * frame]
     assert len(batches) >= 3
-    assert max(sink.sizes) <= STAGE_BYTES
+    assert max(sink.sizes) <= len(lg._stage)
 
 
 def test_input_rc_sample_holds_the_channels_of_each_new_frame():
@@ -357,40 +352,19 @@ def test_input_rc_sample_holds_the_channels_of_each_new_frame():
     assert abs(values[0] - ch[0]) <= 1 and abs(values[15] - ch[15]) <= 1
 
 
-def test_array_copy_twins_write_each_arrays_float32_bytes_in_place():
-    a = array("f", [1.5, -2.25, 3.0e-7])
-    b = array("f", [0.125 * i - 0.3 for i in range(8)])
-    c = array("H", [1000, 2000, 65535])
-    table = array("H", [3, 12, 20, 32, 60, 6])
-    twins = [copy_arrays_py]
-    if copy_arrays_viper is not None:
-        twins.append(copy_arrays_viper)
-    for copy in twins:
-        dst = bytearray(b"\xaa" * 80)
-        copy(dst, 2, table, (a, b, c))
-        assert struct.unpack_from("<3f", dst, 5) == tuple(a)
-        assert struct.unpack_from("<8f", dst, 22) == tuple(b)
-        assert struct.unpack_from("<3H", dst, 62) == tuple(c)
-        assert dst[0:5] == b"\xaa" * 5 and dst[17:22] == b"\xaa" * 5 and dst[68:] == b"\xaa" * 12
-
-
-def test_pass_record_scalar_pack_plus_copy_and_one_pack_write_the_same_log():
-    # The pass record (CPython: the signals live in the frame), the scalars packed then the arrays
-    # copied (the MicroPython path), and one pack of everything: byte-identical logs.
+def test_pass_record_and_one_pack_write_the_same_log():
+    # The pass record (CPython: the signals live in the frame, the timestamps go in per batch) and
+    # one pack of everything (the MicroPython path): byte-identical logs.
     logs = []
-    for record, copy in ((True, None), (False, None), (False, copy_arrays_py), (False, copy_arrays_viper)):
+    for record in (True, False):
 
-        def setup(f, copy=copy, record=record):
-            f.logger.copy_arrays = copy
+        def setup(f, record=record):
             f.logger.record_path = record
 
         f, sink = _fly(30, setup=setup)
-        assert f.logger._copy is copy
         assert (f.logger._rv is not None) == (record and f.signals.record.backed)
         logs.append(bytes(sink.data))
-    assert len(logs) >= 2
-    for log in logs[1:]:
-        assert log == logs[0]
+    assert logs[1] == logs[0]
 
 
 def test_signals_logged_arrays_live_in_the_frame_where_the_runtime_can_view_bytes_as_floats():

@@ -26,9 +26,13 @@ FAST_PACK = (
     "Q12s8xfB",  # timestamp, roll, pitch, yaw, thrust_body = (0, 0, -throttle), reset_integral
     "QI%ds%dx" % (4 * MAX_MOTORS, 4 * (MAX_OUTPUTS - MAX_MOTORS)),  # timestamp, noutputs, output[]; rest 0
     "Q12sI4x12sI4x",  # timestamp, gyro_rad, gyro_integral_dt, accelerometer_m_s2, accelerometer_integral_dt
-    "Q12s48sfBBB",  # timestamp, sum[3] = torque_norm, p[3] i[3] d[3] f[3] = pid_terms, tpa, i_active, airmode,
-    # saturated
+    "Q12s48sfBBBB",  # timestamp, sum[3] = torque_norm, p[3] i[3] d[3] f[3] = pid_terms, tpa, i_active, airmode,
+    # saturated, mode
 )
+# The frame is a whole number of 8-byte words (344 bytes; hoverfly_pid's mode byte makes it so), so
+# the staged frames' timestamps are one strided column per field: core/logger.py fills them once
+# a batch instead of seven stores a pass. (Trailing `_padding` bytes would do the same, but pyulog
+# 1.3 counts a message longer than its fields as corrupt.)
 # The array fields ('s' above) in frame order: the signal each one logs, and its float count.
 ARRAY_FIELDS = (("q", 4), ("gyro_rad_s", 3), ("rate_rad_s", 3), ("motor_out", MAX_MOTORS),
                 ("gyro_raw_rad_s", 3), ("accel_raw_m_s2", 3), ("torque_norm", 3), ("pid_terms", 12))

@@ -10,18 +10,21 @@ sees exactly what the pass consumed and produced; below the loop rate it logs ev
 Topics at the logging rate, one frame per run: vehicle_attitude, vehicle_angular_velocity
 (the filtered gyro the PID used), vehicle_rates_setpoint, actuator_outputs (motor_out:
 0 = stop, idle..1), sensor_combined (the aligned IMU sample the pass read; gyro_integral_dt
-0 = no new sample that pass) and hoverfly_pid (P, I, D, F and sum per axis). input_rc is
+0 = no new sample that pass) and hoverfly_pid (P, I, D, F and sum per axis, the mode). input_rc is
 written for every new receiver frame; battery_status, vehicle_status, hoverfly_loop and
 hoverfly_link about ten times a second. Events (arming, failsafe, modes) become log strings,
 parameter changes become `P` messages after that run's samples, and a sync marker goes out
 about once a second.
 
 Cost: on CPython the arrays the fast topics record live in the signals' pass record (core/
-logframe.py), laid out as the frame: a run stores the timestamps and scalars through views and
-copies the record into a preallocated staging buffer. Where there is no record (MicroPython) the
-frame is one struct.pack_into with each array as one bytes argument. input_rc is staged behind,
-and the sink gets one write per batch (STAGE_BYTES; flush() or close() hand over the rest); the
-other topics run only when something changed. With no sink the pass skips the logger.
+logframe.py), laid out as the frame: a logged pass is two packs of the changing scalars, the
+time into a column and one copy of the record into the staging buffer (`_fast_update`, a
+closure installed as `update` while every pass is logged); the flush spreads the column over
+the batch's seven timestamp fields with one strided store each. Where there is no record
+(MicroPython) the frame is one struct.pack_into with each array as one bytes argument. input_rc
+waits in its own buffer and goes behind the batch's frames; the sink gets one write per batch
+(STAGE_FRAMES passes; flush() or close() hand over the rest); events and the slow topics are
+looked at once a batch. With no sink the pass skips the logger.
 Figures: docs/logs.md "Logging cost", bench/log_loop.py.
 """
 
@@ -48,7 +51,6 @@ from hoverfly.core.events import (
 from hoverfly.core.logframe import (
     ARRAY_FIELDS,
     FAST_PACK,
-    array_table,
     field_offsets,
     frame_format,
     header_offsets,
@@ -57,14 +59,20 @@ from hoverfly.core.params import PARAMS
 from hoverfly.protocols.ulog import UlogWriter
 
 _SLOW_HZ = 10  # battery, status, loop and link topics
+# A batch of staged frames goes to the sink at least 50 times a second (fewer frames a batch at
+# low logging rates); events and the slow topics are looked at when a batch goes (an event
+# carries its own time: it is back-dated to when it happened). Parameter changes are looked for
+# every logged pass: replay applies each after the pass it was logged with.
+_BATCH_HZ = 50
 _RC_CHANNELS = 18  # PX4 input_rc.values[18]
 _U32_MAX = 0xFFFFFFFF
-# The frames of several passes are packed straight into one staging buffer and handed to the sink
-# in one write when the next pass's frame might not fit: the sink's per-write cost (~2.4 µs into a
-# RingSink on CPython) is paid once per batch. 2 KiB (five passes) on the Pico, where RAM is
-# short; 8 KiB (about 22 passes) elsewhere. Anything else the log holds (slow topics, strings,
-# parameter changes, syncs) goes out after the staged frames, so the file stays in time order.
-STAGE_BYTES = 2048 if IS_MICROPYTHON else 8192
+# The frames of several passes are staged in one buffer and handed to the sink in one write when
+# a batch is full: the sink's per-write cost (~2.4 µs into a RingSink on CPython) is paid once
+# per batch. The fast frames sit back to back at a fixed stride, the batch's input_rc samples go
+# after them at the flush. Up to 5 passes (about 2 KiB) on the Pico, where RAM is short; 20
+# (about 8 KiB) elsewhere. Anything else the log holds (slow topics, strings, parameter
+# changes, syncs) goes out after the staged frames.
+STAGE_FRAMES = 5 if IS_MICROPYTHON else 20
 
 # PX4 message definitions (PX4-Autopilot msg/*.msg), trimmed to what hoverfly has; the
 # padding fields are left out (readers go by name). Every format starts with its timestamp.
@@ -116,6 +124,7 @@ HOVERFLY_PID = (
     ("bool", "i_active"),
     ("bool", "airmode_active"),
     ("bool", "saturated"),
+    ("uint8_t", "mode"),  # the controller's mode this pass: 0 acro, 1 angle, 2 horizon
 )
 INPUT_RC = (
     ("uint64_t", "timestamp"),
@@ -204,23 +213,6 @@ def _raw_view(a):
     """Raw bytes of an array or a memoryview (the signals' record views on CPython)."""
     return a.tobytes()
 
-
-def copy_arrays_py(dst, base, table, srcs):
-    """Each array of `srcs` as raw bytes into `dst` at base + table[2k] (table[2k + 1] bytes).
-    The plain twin of logger_viper.copy_arrays."""
-    for k in range(len(srcs)):
-        off = base + table[2 * k]
-        n = table[2 * k + 1]
-        dst[off : off + n] = bytes(srcs[k])[:n]
-
-
-# On MicroPython the arrays are copied by a viper loop (no bytes object, no float boxed) after a
-# pack of the scalars alone; on CPython one pack_into with the arrays' bytes is faster.
-try:
-    from hoverfly.core.logger_viper import copy_arrays as _copy_fast
-except (SyntaxError, ImportError, NameError):
-    _copy_fast = None
-
 # PX4 vehicle_status constants: arming_state 1 standby / 2 armed; nav_state 10 acro, 15 stabilized.
 _ARMING_STANDBY = 1
 _ARMING_ARMED = 2
@@ -306,30 +298,32 @@ class Logger:
         self.bytes = 0
         self.sys_name = "hoverfly"
         self._fmt = frame_format()
-        self._fmt_gaps = frame_format(True)
-        self._table = array_table()
         self._srcs = ()
-        # How the arrays reach the frame: None = as bytes arguments of the one pack_into, else
-        # copy_arrays(stage, frame offset, table, arrays) after a pack of the scalars.
-        self.copy_arrays = _copy_fast
-        self._copy = None  # copy_arrays for this log, None if an array's size does not match
         self._rawf = _raw
         self.record_path = True  # use the signals' pass record where it is backed (tests turn it off)
         self._rv = None
-        self._fast_n = struct.calcsize(self._fmt)
+        self._fast_n = struct.calcsize(self._fmt)  # a whole number of 8-byte words (core/logframe.py)
         self._rc_n = struct.calcsize(_RC_PACK)
-        self._stage = bytearray(STAGE_BYTES)
+        # The stage: up to `_batch` fast frames at a stride of _fast_n bytes, and room after them for
+        # as many input_rc samples (at most one per logged pass), which wait in _rc_stage until the
+        # flush puts them behind the batch's frames.
+        self._batch = STAGE_FRAMES
+        self._stage = bytearray(self._batch * (self._fast_n + self._rc_n))
         self._stage_mv = memoryview(self._stage)
-        self._stage_last = STAGE_BYTES - self._fast_n - self._rc_n  # flush once past this offset
-        self._off = 0  # staged bytes
+        self._rc_stage = bytearray(self._batch * self._rc_n)
+        self._t_column = array("Q", bytes(8 * self._batch))  # the staged frames' times (record path)
+        self._t_views = ()  # each fast timestamp field of the staged frames as a 'Q' view
         self._staged = 0  # staged fast frames
+        self._rc_off = 0  # staged input_rc bytes
         self._staged_rc = 0  # staged input_rc samples
+        self._imu_fresh = True  # the record's integral_dt fields hold _dt_us (else 0: no new sample)
         self._staged_t64 = 0  # time of the first staged frame
         self._rc_header = b"\0" * 5
         self._ids = {}
         self._sink_free = None
         self._t64 = 0
-        self._slow_every = 100
+        self._batch_n = self._batch  # frames a batch at this logging rate
+        self._slow_every = 5  # batches between slow topics
         self._slow_left = 0
         self._ev_seen = 0
         self._rc_seen = 0
@@ -363,6 +357,10 @@ class Logger:
         self.rate_hz = rate
         self._dt_us = 1000000 // loop_hz  # gyro_integral_dt of a pass with a new IMU sample
         self._pass_us = self._dt_us
+        rv = self._rv
+        if rv is not None:  # the record's constant fields: motor count, a new sample's integral_dt
+            rv[6][0] = self.flight.motor_count
+            rv[7][0] = rv[8][0] = self._dt_us if self._imu_fresh else 0
         self._apply_rate()
 
     def _apply_rate(self):
@@ -370,12 +368,15 @@ class Logger:
         self.active = self.sink is not None and rate > 0
         if rate <= 0:
             return
-        every = rate // _SLOW_HZ
+        n = rate // _BATCH_HZ
+        self._batch_n = self._batch if n > self._batch else (n if n > 0 else 1)
+        every = rate // self._batch_n // _SLOW_HZ
         self._slow_every = every if every > 0 else 1
         self._period_us = 1000000 // rate
         self._every_pass = self._period_us <= self._pass_us
         if self._left_us > self._period_us:
             self._left_us = self._period_us
+        self._use_fast_update(False)  # the next logged pass picks the path again
 
     def start(self, now_us):
         """Flight.start: the time log timestamps count from (a log opened before it)."""
@@ -385,8 +386,8 @@ class Logger:
     def open(self, sink):
         """Start a log into `sink` (anything with write(bytes)); definitions go out at the next pass."""
         self.sink = sink
-        self._off = 0
         self._staged = 0
+        self._rc_off = 0
         self._staged_rc = 0
         self._sink_free = getattr(sink, "free", None)
         self.writer = None
@@ -397,6 +398,7 @@ class Logger:
     def close(self):
         """End the log: the staged frames and a last sync; the sink's owner flushes and closes it."""
         if self.writer is not None:
+            self._check(None, self._t64)  # events since the last look
             self.flush()
             self.writer.sync()
         self.sink = None
@@ -439,14 +441,9 @@ class Logger:
         sig = f.signals
         c = f.controller
         self._headers = tuple(headers)
-        self._ctx = (sig.setpoint, c, f.mixer, f.rc, f.events, f.params)
+        self._ctx = (sig.setpoint, c, f.mixer, f.rc, f.params)
         self._srcs = (sig.attitude.q, sig.gyro_rad_s, sig.setpoint.rate_rad_s, sig.motor_out,
                       sig.gyro_raw_rad_s, sig.accel_raw_m_s2, sig.torque_norm, c.terms)
-        copy = self.copy_arrays
-        for k in range(len(self._srcs)):
-            if len(bytes(self._srcs[k])) != self._table[2 * k + 1]:
-                copy = None  # the copy would read past a short array: pack its bytes instead
-        self._copy = copy
         self._rv = self._record_views(getattr(sig, "record", None), headers)
         self._rawf = _raw if isinstance(sig.gyro_rad_s, array) else _raw_view
         ch = sig.rc_channels_us
@@ -462,9 +459,11 @@ class Logger:
         # Events and the receiver frame from before this first run (the boot pass) go in too.
         self._ev_seen = 0
         self._rc_seen = 0
-        self._slow_left = 0
+        self._slow_left = self._slow_every
         self._dropping = False
         w.maybe_sync(t0)
+        self._check(now_us, t0)
+        self._log_slow(t0)
 
     def _record_views(self, record, headers):
         """The pass record path: when the signals' logged arrays are views into one frame-shaped
@@ -480,18 +479,27 @@ class Logger:
         hs = header_offsets()
         for k in range(len(hs)):
             buf[hs[k] : hs[k] + len(headers[k])] = headers[k]
-        ts = [record.view(off, "Q") for off, n in field_offsets("Q")]
-        ints = [record.view(off, "I") for off, n in field_offsets("I")]
-        floats = field_offsets("f")  # thrust_body[2], tpa
-        flags = field_offsets("B")  # reset_integral, then i_active, airmode_active, saturated
-        return (self._stage, buf, ts[0], ts[1], ts[2], ts[3], ts[4], ts[5], ts[6], record.view(floats[0][0], "f"),
-                record.view(flags[0][0], "B"), ints[0], ints[1], ints[2], record.view(floats[1][0], "f"),
-                record.view(flags[1][0], "B", 3))
+        # The timestamps go in once per batch (_flush), a strided store per field into the stage.
+        n = self._fast_n
+        words = (self._batch - 1) * (n // 8) + 1  # from the field in frame 0 to it in the last frame
+        self._t_views = tuple(self._stage_mv[off : off + 8 * words].cast("Q") for off, _ in field_offsets("Q"))
+        ints = [record.view(off, "I") for off, _ in field_offsets("I")]
+        ints[0][0] = self.flight.motor_count  # noutputs: set again by configure
+        ints[1][0] = self._dt_us  # gyro and accelerometer integral_dt: a new sample, until a pass has none
+        ints[2][0] = self._dt_us
+        self._imu_fresh = True
+        # The scalars that change pass to pass come in two runs, each one pack: thrust_body[2] and
+        # reset_integral; tpa, i_active, airmode_active, saturated and mode.
+        floats = field_offsets("f")
+        return (self._stage, buf, self._t_column, struct.pack_into, floats[0][0], floats[1][0], ints[0], ints[1],
+                ints[2])
 
     # ------------------------------------------------------------------ the pass
     def update(self, now_us):
         """One logged pass: Flight.step calls it last in the pass while `active`. Below the loop
-        rate it counts passes down (in µs of the nominal period) and logs the due ones."""
+        rate it counts passes down (in µs of the nominal period) and logs the due ones. Logging
+        every pass into the pass record (CPython), the first pass installs `_fast_update` in its
+        place."""
         f = self.flight
         # Log time: the passes' own tick differences (Flight.step's pass_dt_us), summed in a plain
         # int: one add here instead of another ticks_diff (a Python function on CPython).
@@ -506,48 +514,100 @@ class Logger:
         if self.writer is None:
             self._begin(now_us)
             t = self._t64
-        sp, c, mixer, rc, events, params = self._ctx
-        dt_us = self._dt_us if f.imu_us == now_us else 0
-        i_active = f.i_active
-        off = self._off
-        if off == 0:
-            self._staged_t64 = t
+        sp, c, mixer, rc, params = self._ctx
+        i = self._staged
+        if i == 0:
+            self._staged_t64 = t  # the pack path's; the record path's is the column's first
         rv = self._rv
         if rv is not None:
-            # The arrays are already in the record (the stages wrote them there): the scalars go in
-            # through views, then the record is the frame.
-            stage_copy, buf, v0, v1, v2, v3, v4, v5, v6, thrust_z, reset, nout, gdt, adt, tpa, flags = rv
-            v0[0] = t
-            v1[0] = t
-            v2[0] = t
-            v3[0] = t
-            v4[0] = t
-            v5[0] = t
-            v6[0] = t
-            thrust_z[0] = -sp.throttle_norm
-            reset[0] = 0 if i_active else 1
-            nout[0] = f.motor_count
-            gdt[0] = dt_us
-            adt[0] = dt_us
-            tpa[0] = c.tpa
-            flags[0] = 1 if i_active else 0
-            flags[1] = 1 if f.airmode_active else 0
-            flags[2] = 1 if mixer.saturated else 0
-            stage_copy[off : off + self._fast_n] = buf
+            if self._every_pass:
+                self._use_fast_update(True)
+            self._t_column[i] = t
+            self._record_scalars(now_us, rv)
+            n = self._fast_n
+            rv[0][i * n : i * n + n] = rv[1]
         else:
-            self._pack(off, t, dt_us, i_active, sp, c, mixer)
-        off += self._fast_n
-        self._staged += 1
+            self._pack(i * self._fast_n, t, now_us, sp, c, mixer)
+        i += 1
+        self._staged = i
         if rc.frames != self._rc_seen:
             self._rc_seen = rc.frames
-            off = self._stage_rc(off, t)
-        self._off = off
-        if off > self._stage_last:
-            self._flush()
-        if events.count != self._ev_seen:
-            self._log_events(now_us, t)
+            self._stage_rc(t)
+        if i >= self._batch_n:
+            self._batch_full(now_us, t)
         if params.changed != self._par_seen:
             self._log_param_changes(t)
+
+    def _record_scalars(self, now_us, rv):
+        """The pass's changing scalars into the record, in two packs: thrust_body[2] and
+        reset_integral; tpa, i_active, airmode_active, saturated and mode. integral_dt only
+        changes when a pass has no new IMU sample (0) and when they come again."""
+        f = self.flight
+        sp, c, mixer = self._ctx[0:3]
+        buf, pack_into, at_thrust, at_tpa = rv[1], rv[3], rv[4], rv[5]
+        i_active = f.i_active
+        pack_into("<f?", buf, at_thrust, -sp.throttle_norm, not i_active)
+        pack_into("<f???B", buf, at_tpa, c.tpa, i_active, f.airmode_active, mixer.saturated, sp.mode)
+        fresh = f.imu_us == now_us
+        if fresh is not self._imu_fresh:
+            self._imu_fresh = fresh
+            rv[7][0] = rv[8][0] = self._dt_us if fresh else 0
+
+    def _use_fast_update(self, on):
+        """Install (on) or remove the every-pass record-path update as this logger's `update`."""
+        if on:
+            self.update = self._fast_update()
+        else:
+            try:
+                del self.update
+            except (AttributeError, KeyError, TypeError):
+                pass
+
+    def _fast_update(self):
+        """`update` for the common case, logging every pass into the pass record (CPython): the
+        same steps as update() with everything it reads bound once, as a closure. The stages wrote
+        the arrays into the record; the constant fields were set once; the time goes in a column
+        the batch's flush spreads over its frames; two packs store the changing scalars; the
+        record is copied into the stage. Anything else (a new receiver frame, a full batch, a
+        parameter change) goes the same way as in update()."""
+        lg = self
+        f = self.flight
+        sp, c, mixer, rc, params = self._ctx
+        stage, buf, t_column, pack_into, at_thrust, at_tpa = self._rv[0:6]
+        n = self._fast_n
+        batch_n = self._batch_n
+        record_scalars = self._record_scalars
+        rv = self._rv
+
+        def update(now_us):
+            t = lg._t64 + f.pass_dt_us
+            lg._t64 = t
+            i = lg._staged
+            t_column[i] = t
+            i_active = f.i_active
+            pack_into("<f?", buf, at_thrust, -sp.throttle_norm, not i_active)
+            pack_into("<f???B", buf, at_tpa, c.tpa, i_active, f.airmode_active, mixer.saturated, sp.mode)
+            if (f.imu_us == now_us) is not lg._imu_fresh:
+                record_scalars(now_us, rv)
+            off = i * n
+            stage[off : off + n] = buf
+            i += 1
+            lg._staged = i
+            if rc.frames != lg._rc_seen:
+                lg._rc_seen = rc.frames
+                lg._stage_rc(t)
+            if i >= batch_n:
+                lg._batch_full(now_us, t)
+            if params.changed != lg._par_seen:
+                lg._log_param_changes(t)
+
+        return update
+
+    def _batch_full(self, now_us, t):
+        """A full batch to the sink, then the events since the last batch and, every
+        `_slow_every` batches (about ten times a second), the slow topics."""
+        self._flush()
+        self._check(now_us, t)
         left = self._slow_left - 1
         if left > 0:
             self._slow_left = left
@@ -555,54 +615,60 @@ class Logger:
             self._slow_left = self._slow_every
             self._log_slow(t)
 
-    def _pack(self, off, t, dt_us, i_active, sp, c, mixer):
-        """The frame packed into the staging buffer at `off` (no pass record: MicroPython)."""
+    def _check(self, now_us, t):
+        """Events since the last look (each batch, and at close with now_us None: stamped `t`)."""
+        if self.flight.events.count != self._ev_seen:
+            self._log_events(now_us, t)
+
+    def _pack(self, off, t, now_us, sp, c, mixer):
+        """The frame packed into the staging buffer at `off` (no pass record: MicroPython): one C
+        call packs the whole frame (headers, the seven copies of the timestamp, the scalars); each
+        array signal goes in as one bytes object."""
         f = self.flight
         h0, h1, h2, h3, h4, h5 = self._headers
         q, g, rs, mo, gr, ar, tq, pt = self._srcs
-        copy = self._copy
-        if copy is None:
-            # One C call packs the whole frame (headers, the seven copies of the timestamp, the
-            # scalars); each array signal goes in as one bytes object.
-            raw = self._rawf
-            struct.pack_into(
-                self._fmt, self._stage, off,
-                h0, t, raw(q),
-                h1, t, t, raw(g),
-                h2, t, raw(rs), -sp.throttle_norm, 0 if i_active else 1,
-                h3, t, f.motor_count, raw(mo),
-                h4, t, raw(gr), dt_us, raw(ar), dt_us,
-                h5, t, raw(tq), raw(pt), c.tpa,
-                1 if i_active else 0, 1 if f.airmode_active else 0, 1 if mixer.saturated else 0,
-            )
-        else:
-            struct.pack_into(
-                self._fmt_gaps, self._stage, off,
-                h0, t,
-                h1, t, t,
-                h2, t, -sp.throttle_norm, 0 if i_active else 1,
-                h3, t, f.motor_count,
-                h4, t, dt_us, dt_us,
-                h5, t, c.tpa,
-                1 if i_active else 0, 1 if f.airmode_active else 0, 1 if mixer.saturated else 0,
-            )
-            copy(self._stage, off, self._table, self._srcs)
+        raw = self._rawf
+        dt_us = self._dt_us if f.imu_us == now_us else 0
+        i_active = f.i_active
+        struct.pack_into(
+            self._fmt, self._stage, off,
+            h0, t, raw(q),
+            h1, t, t, raw(g),
+            h2, t, raw(rs), -sp.throttle_norm, 0 if i_active else 1,
+            h3, t, f.motor_count, raw(mo),
+            h4, t, raw(gr), dt_us, raw(ar), dt_us,
+            h5, t, raw(tq), raw(pt), c.tpa,
+            1 if i_active else 0, 1 if f.airmode_active else 0, 1 if mixer.saturated else 0, sp.mode,
+        )
 
     def flush(self):
         """Hand the staged frames to the sink now (close() and every other log write do this first)."""
-        if self._off > 0 and self.sink is not None:
+        if self._staged > 0 and self.sink is not None:
             self._flush()
 
     def _flush(self):
-        n = self._off
-        if n == 0:
-            return
         frames = self._staged
+        if frames == 0:
+            return
+        n = frames * self._fast_n
+        if self._rv is not None:
+            # Each timestamp field of the staged frames, one strided store from the column (the
+            # views' stride is the frame's size in 8-byte words).
+            col = memoryview(self._t_column)[:frames]
+            step = self._fast_n // 8
+            last = (frames - 1) * step + 1
+            for v in self._t_views:
+                v[0:last:step] = col
         rc = self._staged_rc
-        self._off = 0
+        if rc:
+            m = self._rc_off
+            self._stage[n : n + m] = self._rc_stage[:m]
+            n += m
         self._staged = 0
+        self._rc_off = 0
         self._staged_rc = 0
-        if self._write(self.sink, self._stage_mv[:n], self._staged_t64):
+        first_t = self._t_column[0] if self._rv is not None else self._staged_t64
+        if self._write(self.sink, self._stage_mv[:n], first_t):
             self.frames += frames
             self.rc_frames += rc
             self.bytes += n
@@ -631,8 +697,8 @@ class Logger:
             return False
         return True
 
-    def _stage_rc(self, off, t):
-        """input_rc for the new receiver frame, staged after this run's frame; returns the new offset."""
+    def _stage_rc(self, t):
+        """input_rc for the new receiver frame, staged until this batch's flush."""
         f = self.flight
         ch = f.signals.rc_channels_us
         rec = self._receiver
@@ -649,17 +715,18 @@ class Logger:
             total = f.rc.frames & 0xFFFF
             errors = 0
             rssi_dbm = 0
+        off = self._rc_off
         if self._rc_whole:
-            struct.pack_into(_RC_PACK, self._stage, off, self._rc_header, t, t, lq, errors, total, _raw(ch),
+            struct.pack_into(_RC_PACK, self._rc_stage, off, self._rc_header, t, t, lq, errors, total, _raw(ch),
                              _RC_CHANNELS, fs, 0 if f.rx_ok else 1, 0, lq, rssi_dbm)
         else:  # another board's channel source: pad or cut to PX4's 18
             v = [0] * _RC_CHANNELS
             for i in range(len(ch) if len(ch) < _RC_CHANNELS else _RC_CHANNELS):
                 v[i] = ch[i]
-            struct.pack_into(_RC_PACK_VALUES, self._stage, off, self._rc_header, t, t, lq, errors, total, *v,
+            struct.pack_into(_RC_PACK_VALUES, self._rc_stage, off, self._rc_header, t, t, lq, errors, total, *v,
                              len(ch), fs, 0 if f.rx_ok else 1, 0, lq, rssi_dbm)
+        self._rc_off = off + self._rc_n
         self._staged_rc += 1
-        return off + self._rc_n
 
     def _log_events(self, now_us, t):
         self._flush()
@@ -668,7 +735,7 @@ class Logger:
         w = self.writer
         for et, event, detail in self._h:
             # Back-date by the event's age in ticks (it may come from an earlier pass).
-            age = ticks_diff(now_us, et)
+            age = ticks_diff(now_us, et) if now_us is not None else -1
             te = t - age if 0 <= age <= t else t
             w.log_message(_event_level(event), te, event_text(event, detail))
             self.events += 1
