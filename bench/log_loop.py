@@ -226,5 +226,6 @@ def main():
           % (runtime, off, on, median, 100.0 * median / off, on - off, mean, alone, rate, RUNS * PASSES, alloc))
 
 
-main()
-sys.stdout.flush()
+if __name__ == "__main__":
+    main()
+    sys.stdout.flush()
