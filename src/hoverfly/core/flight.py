@@ -235,7 +235,9 @@ class Flight:
             board.write_servos(s.servo_norm, 1)
         if output.bidir and board.read_motor_telemetry(output.reply_codes, n):
             output.decode_replies(n, s.motor_erpm, s.motor_rpm)
-        self.scheduler.run(now_us)
+        sched = self.scheduler
+        if ticks_diff(now_us, sched.next_due_us) >= 0:  # most passes run no task: not even the call
+            sched.run(now_us)
         if self.logger.active:
             self.logger.update(now_us)
 

@@ -30,7 +30,7 @@ class Scheduler:
         self.jitter_sum_us = 0
         self.overruns = 0
         self._last_us = 0
-        self._next_due_us = 0
+        self.next_due_us = 0  # the earliest task's next time: run() has nothing to do before it
 
     def add(self, name, rate_hz, fn):
         self.tasks.append(Task(name, rate_hz, fn))
@@ -40,7 +40,7 @@ class Scheduler:
         self._last_us = now_us
         for t in self.tasks:
             t.next_us = now_us
-        self._next_due_us = now_us
+        self.next_due_us = now_us
 
     def pass_started(self, now_us):
         """Record the cycle time of the pass starting now."""
@@ -63,7 +63,7 @@ class Scheduler:
 
     def run(self, now_us):
         # Most passes run no task: one comparison against the earliest due time.
-        if ticks_diff(now_us, self._next_due_us) < 0:
+        if ticks_diff(now_us, self.next_due_us) < 0:
             return
         first = None
         for t in self.tasks:
@@ -76,7 +76,7 @@ class Scheduler:
                 t.next_us = nxt
             if first is None or ticks_diff(t.next_us, first) < 0:
                 first = t.next_us
-        self._next_due_us = first
+        self.next_due_us = first
 
     def stats_reset(self):
         self.cycle_max_us = 0
