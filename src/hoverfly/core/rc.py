@@ -57,6 +57,15 @@ class RcInput:
         self._fs_switch = (0, 1700, 2100)
         self._smooth_type = "pt2"
         self._thr_bands = None  # seed 001: (DESCEND, HOVERING, CLIMB) µs, or None for the raw stick
+        # update()'s PT2 fast path, per filter (roll, pitch, yaw, throttle): `_still[i]` when its last
+        # update changed neither state with input `_held[i]`, so the same input gives the same output
+        # again (test_rc_fast_path checks this against the plain Pt2). Then the smoothed value
+        # `_out[i]`, its rate `_rate_rad_s[i]` (sticks) and angle `_angle_rad[i]` (roll, pitch) are reused.
+        self._still = [False, False, False, False]
+        self._held = [0.0, 0.0, 0.0, 0.0]
+        self._out = [0.0, 0.0, 0.0, 0.0]
+        self._rate_rad_s = [0.0, 0.0, 0.0]
+        self._angle_rad = [0.0, 0.0]
 
     def configure(self, params, loop_hz):
         rc = (("roll_rc_rate", "roll_srate", "roll_expo"), ("pitch_rc_rate", "pitch_srate", "pitch_expo"),
@@ -93,6 +102,12 @@ class RcInput:
         self._airmode = (params.get("airmode_ch"), params.get("airmode_min_us"), params.get("airmode_max_us"))
         self.airmode_box = self._airmode[0] > 0
         self._fs_switch = (params.get("fs_switch_ch"), params.get("fs_switch_min_us"), params.get("fs_switch_max_us"))
+        self._forget()
+
+    def _forget(self):
+        """Drop update()'s reused results (the filters, curves or angle limit changed)."""
+        for i in range(4):
+            self._still[i] = False
 
     def set_arm_range(self, ch, min_us, max_us):
         """Arm when channel `ch` (1-based, 0 = never) reads min_us <= µs < max_us. configure()
@@ -134,18 +149,18 @@ class RcInput:
             t = b[0] if t < 1333 else (b[1] if t < 1666 else b[2])
         thr = (t - 1000) * 0.001
         self.throttle_raw = 0.0 if thr < 0.0 else (1.0 if thr > 1.0 else thr)
-        a = self._arm
-        self.arm_switch = _in_range(channels_us, a[0], a[1], a[2])
-        h = self._horizon
-        g = self._angle
-        if _in_range(channels_us, h[0], h[1], h[2]):
+        # The mode ranges: _in_range() inline (four calls a frame otherwise).
+        n = len(channels_us)
+        ch, lo, hi = self._arm
+        self.arm_switch = 0 < ch <= n and lo <= channels_us[ch - 1] < hi
+        ch, lo, hi = self._horizon
+        if 0 < ch <= n and lo <= channels_us[ch - 1] < hi:
             self.mode = MODE_HORIZON
-        elif _in_range(channels_us, g[0], g[1], g[2]):
-            self.mode = MODE_ANGLE
         else:
-            self.mode = MODE_ACRO
-        m = self._airmode
-        self.airmode_switch = _in_range(channels_us, m[0], m[1], m[2])
+            ch, lo, hi = self._angle
+            self.mode = MODE_ANGLE if 0 < ch <= n and lo <= channels_us[ch - 1] < hi else MODE_ACRO
+        ch, lo, hi = self._airmode
+        self.airmode_switch = 0 < ch <= n and lo <= channels_us[ch - 1] < hi
         self.frames += 1
 
     def throttle_low(self):
@@ -155,16 +170,68 @@ class RcInput:
         for axis in range(3):
             self.filters[axis].reset(self.stick_raw[axis])
         self.filters[3].reset(self.throttle_raw)
+        self._forget()
 
     def update(self, sp):
         """Smooth the latest frame into the setpoint (every pass)."""
         f = self.filters
+        if self._smooth_type != "pt2":
+            s = sp.stick_norm
+            s[0] = f[0].update(self.stick_raw[0])
+            s[1] = f[1].update(self.stick_raw[1])
+            s[2] = f[2].update(self.stick_raw[2])
+            sp.throttle_norm = f[3].update(self.throttle_raw)
+            self.fill_setpoint(sp)
+            return
+        # PT2 (the default): Pt2.update's arithmetic inline on the same filter objects, and a filter
+        # that sits still on an unchanged input is not run at all: sticks at rest cost no floats
+        # (each float result is a heap object on MicroPython). See __init__ for the bookkeeping.
+        still = self._still
+        held = self._held
+        out = self._out
         s = sp.stick_norm
-        s[0] = f[0].update(self.stick_raw[0])
-        s[1] = f[1].update(self.stick_raw[1])
-        s[2] = f[2].update(self.stick_raw[2])
-        sp.throttle_norm = f[3].update(self.throttle_raw)
-        self.fill_setpoint(sp)
+        r = sp.rate_rad_s
+        raw = self.stick_raw
+        for i in range(3):
+            x = raw[i]
+            if still[i] and x == held[i]:
+                s[i] = out[i]
+            else:
+                flt = f[i]
+                k = flt.k
+                s1 = flt.s1
+                y = flt.y
+                s1_new = s1 + k * (x - s1)
+                y_new = y + k * (s1_new - y)
+                flt.s1 = s1_new
+                flt.y = y_new
+                still[i] = s1_new == s1 and y_new == y
+                held[i] = x
+                out[i] = y_new
+                s[i] = y_new
+                v = s[i]  # the stored (float32) value, as fill_setpoint reads it
+                self._rate_rad_s[i] = self.rates[i].rate_rad_s(v)
+                if i < 2:
+                    self._angle_rad[i] = v * self.angle_limit_rad
+            r[i] = self._rate_rad_s[i]
+        x = self.throttle_raw
+        if still[3] and x == held[3]:
+            sp.throttle_norm = out[3]
+        else:
+            flt = f[3]
+            k = flt.k
+            s1 = flt.s1
+            y = flt.y
+            s1_new = s1 + k * (x - s1)
+            y_new = y + k * (s1_new - y)
+            flt.s1 = s1_new
+            flt.y = y_new
+            still[3] = s1_new == s1 and y_new == y
+            held[3] = x
+            out[3] = y_new
+            sp.throttle_norm = y_new
+        sp.roll_angle_rad = self._angle_rad[0]
+        sp.pitch_angle_rad = self._angle_rad[1]
 
     def fill_setpoint(self, sp):
         s = sp.stick_norm
