@@ -100,6 +100,7 @@ class OutputStage:
         self.motor_count = 4
         self.idle = 0.055
         self.motor_max = 1.0
+        self._span = 1.0 - 0.055
         self.clamped = 0  # motor demand outside 0..1 or NaN
         self.bidir = False
         self.error = ""  # a configuration the board's encoder will also refuse (e.g. motor_order)
@@ -114,6 +115,7 @@ class OutputStage:
         self.motor_max = params.get("motor_max_pct") * 0.01
         if self.motor_max < self.idle:
             self.motor_max = self.idle
+        self._span = self.motor_max - self.idle  # once here, not a float per pass
         self.bidir = dshot_speed_kbit(params.get("motor_protocol")) > 0 and params.get("dshot_bidir") == 1
         poles = params.get("motor_poles")
         for d in self.decoders:
@@ -128,7 +130,7 @@ class OutputStage:
                 motor_out[i] = 0.0
             return
         idle = self.idle
-        span = self.motor_max - idle
+        span = self._span
         for i in range(n):
             m = motor_norm[i]
             if m > 1.0:
@@ -196,6 +198,7 @@ class OutputEncoder:
         self.servo_us = array("f", [1500.0] * MAX_SERVOS)
         self.line_of_motor = bytes(range(MAX_MOTORS))
         self.motor_of_line = bytes(range(MAX_MOTORS))
+        self._in_order = True
         self.reversed_mask = 0
         self.rate_hz = 480
         self.min_us = 1000.0
@@ -238,6 +241,8 @@ class OutputEncoder:
         if err:
             errors.append(err)
         self.line_of_motor = order
+        # motor m on line m (motor_order 0): write() encodes straight into `words`
+        self._in_order = order == bytes(range(motor_count))
         inv = bytearray(range(MAX_MOTORS))
         for m in range(motor_count):
             inv[order[m]] = m
@@ -311,22 +316,20 @@ class OutputEncoder:
         if count < n:
             n = count
         lines = self.line_of_motor
-        spinning = False
         if self.dshot:
             enc = self._dshot_enc
-            scratch = self._scratch
             before = enc.clamped
             enc.motor_count = n
-            enc.encode_motors(motor_out, True, scratch)
+            words = self.words
+            if self._in_order:
+                spinning = enc.encode_motors(motor_out, True, words) > 0
+            else:
+                scratch = self._scratch
+                spinning = enc.encode_motors(motor_out, True, scratch) > 0
+                for m in range(n):
+                    words[lines[m]] = scratch[m]
             if enc.clamped != before:
                 self.clamped += enc.clamped - before
-            words = self.words
-            stop = self._stop_word
-            for m in range(n):
-                w = scratch[m]
-                words[lines[m]] = w
-                if w != stop:
-                    spinning = True
             # DShot commands go out only while every motor is stopped; a spinning motor drops them.
             self.commands.apply(now_us, spinning, words)
         else:

@@ -328,6 +328,7 @@ class DshotEncoder:
     def encode_motors(self, motor_norm, armed, out_words):
         """Write one DShot word per motor into out_words (array('H'), len >= motor_count).
 
+        Returns how many words differ from the stop word (0: every motor stopped).
         # SAFETY: disarmed writes the stop word for every motor whatever motor_norm holds.
         """
         bidir = self.bidir
@@ -336,17 +337,40 @@ class DshotEncoder:
             stop = dshot_frame(0, 0, bidir)
             for i in range(n):
                 out_words[i] = stop
-            return
+            return 0
         low_fp = self._low_fp
         span_fp = self._span_fp
+        stop_at_zero = self.stop_at_zero
         tm = self.telemetry_motor
+        moving = 0
         for i in range(n):
-            v = self._value(motor_norm[i], low_fp, span_fp)
+            # _value() inline (a call per motor costs more than the arithmetic on MicroPython);
+            # test_dshot checks the two agree.
+            t = motor_norm[i]
+            v = -1
+            if t > 1.0:
+                t = 1.0
+                self.clamped += 1
+            elif not (t >= 0.0):  # below 0, or NaN
+                self.clamped += 1
+                if stop_at_zero:
+                    v = 0
+                else:
+                    t = 0.0
+            elif t == 0.0 and stop_at_zero:
+                v = 0
+            if v < 0:
+                v = (low_fp + int(span_fp * t)) >> 16
+                if v > VALUE_MAX:
+                    v = VALUE_MAX
             w = (v << 1) | (1 if i == tm else 0)
+            if w:
+                moving += 1
             c = w ^ (w >> 4) ^ (w >> 8)
             if bidir:
                 c = ~c
             out_words[i] = (w << 4) | (c & 0xF)
+        return moving
 
     def encode_values(self, values, out_words):
         """Integer path: 11-bit values (already mapped) -> words; clamps and counts like dshot_frame."""
@@ -477,6 +501,8 @@ class DshotCommandQueue:
 
     def apply(self, now_us, armed, out_words):
         """Overwrite the target motor words with the command when one is due; True if it did."""
+        if armed and self._state == _IDLE and not self._count:
+            return False  # the flight's every pass: nothing queued, nothing to abort (_step's answer)
         w = self._step(now_us, armed)
         if w < 0:
             return False
