@@ -1,0 +1,366 @@
+"""Where the flight pass goes: µs and bytes per call of each stage of bench/core_loop.py's armed flight.
+
+Builds the same board and armed flight as bench/core_loop.py (MPU-6050 burst through the driver,
+a CRSF frame every 4th pass, DShot words), then times every stage call separately: each stage
+method is replaced on its instance by a wrapper that reads ticks_us() and gc.mem_alloc() around
+the real call (GC disabled for the pass, collected between passes, untimed). The wrapper's own
+cost (a wrapped no-op, measured the same way) is subtracted from every per-call figure. The slow tasks
+are probed on a second flight and the calls inside them on a third (gc.mem_alloc() walks the heap: a
+probe inside a probed call would add its walk to the outer call's time).
+
+Prints one JSON object:
+{runtime, passes, step_us, step_bytes, probe_us, probe_bytes, stages: {name: [us_per_call, bytes_per_call,
+calls_per_pass, us_per_pass]}, nested: {...}, step_self_us}. `stages` are called from Flight.step (they add
+up to the pass with step_self_us, the pass's own glue); `nested` run inside a stage (task_rx, task_arming) and
+are already counted in it. Per-call figures are the best (lowest) of three runs.
+
+    python3 bench/core_stages.py
+    MICROPYPATH=src .venv/bin/micropython -X heapsize=1m bench/core_stages.py
+
+(1 MB heap: the probes and more flights do not fit the 320 KB bench/core_loop.py runs in.)
+"""
+
+import sys
+
+if sys.implementation.name == "micropython":
+    # As bench/core_loop.py: compile the core leaves first, collecting in between.
+    import gc
+
+    for _name in ("drivers.orientation", "drivers.imu", "drivers.mpu6050", "core.params", "core.events",
+                  "core.filters", "core.control", "core.estimator", "core.mixer", "core.arming", "core.failsafe",
+                  "core.rc", "core.scheduler", "core.signals", "core.output", "core.receiver", "core.logger",
+                  "core.flight"):
+        gc.collect()
+        __import__("hoverfly." + _name)
+    gc.collect()
+
+from hoverfly.compat import (
+    IS_MICROPYTHON,
+    collect_garbage,
+    disable_gc,
+    enable_gc,
+    mem_alloc,
+    ticks_diff,
+    ticks_us,
+)
+from hoverfly.core.board import Board
+from hoverfly.core.flight import Flight
+from hoverfly.core.output import OutputEncoder
+from hoverfly.drivers.mpu6050 import MPU6050, WHO_AM_I_VALUE
+from hoverfly.drivers.orientation import Orientation
+from hoverfly.protocols.crsf import encode_rc_frame
+
+
+# ------------------------------------------------------------- the bench flight (as bench/core_loop.py)
+class BurstBus:
+    def __init__(self):
+        self.burst = bytes(14)
+
+    def readfrom_mem_into(self, address, register, buf):
+        if len(buf) == 1:
+            buf[0] = WHO_AM_I_VALUE
+        else:
+            buf[:] = self.burst
+
+    def writeto_mem(self, address, register, data):
+        pass
+
+
+def _burst(gx, gy, gz):
+    b = bytearray(14)
+    for k, v in ((0, 20), (1, 20), (2, 2008), (3, 0), (4, gx), (5, -gy), (6, -gz)):
+        v &= 0xFFFF
+        b[2 * k] = v >> 8
+        b[2 * k + 1] = v & 0xFF
+    return b
+
+
+class BenchBoard(Board):
+    def __init__(self):
+        self.t = 0
+        self.k = 0
+        self.polls = 0
+        self.bursts = (_burst(10, 20, -5), _burst(-10, 21, -5), _burst(3, 20, -6))
+        self.frames = []
+        for arm_us, roll_us in ((1000, 1500), (2000, 1500), (2000, 1507)):
+            ch = [roll_us, 1500, 1400, 1500, arm_us, 2000] + [1500] * 10
+            self.frames.append(bytes(encode_rc_frame(ch)))
+        self.encoder = OutputEncoder()
+        self.bus = BurstBus()
+        self.imu = MPU6050(self.bus, Orientation(), delay_us=lambda us: None)
+        self.imu.configure()
+
+    def now_us(self):
+        return self.t
+
+    def read_imu(self, gyro, accel):
+        self.k += 1
+        self.bus.burst = self.bursts[self.k % 3]
+        return self.imu.read(gyro, accel)
+
+    def read_rx(self, buf):
+        self.polls += 1
+        if self.polls & 1:
+            return 0
+        f = self.frames[0] if self.polls < 800 else self.frames[1 + ((self.polls >> 1) & 1)]
+        n = len(f)
+        buf[0:n] = f
+        return n
+
+    def configure_outputs(self, params, motor_count, servo_count):
+        self.encoder.configure(params, motor_count, servo_count, self.t)
+
+    def write_motors(self, out, n):
+        self.encoder.write(out, n, self.t)
+
+
+def armed_flight():
+    board = BenchBoard()
+    f = Flight(board)
+    f.params.set("gyro_cal_ms", 100)
+    f.params.set("boot_grace_ms", 0)
+    f.params.set("min_check", 1500)
+    f.start(0)
+    t = 0
+    for _ in range(3000):
+        t += 1000
+        board.t = t
+        f.step(t)
+    assert f.arming.armed, "bench flight did not arm"
+    return board, f, t
+
+
+# ------------------------------------------------------------------------------------ the probes
+# One slot per probe: total µs, bytes and calls. Small ints only, so the bookkeeping allocates nothing.
+US = [0] * 64
+BYTES = [0] * 64
+CALLS = [0] * 64
+NAMES = []
+NESTED = []
+
+
+def _wrap(slot, fn, nargs):
+    # One wrapper per arity: a *args call allocates on MicroPython, inside the timed window.
+    if nargs == 0:
+        def w():
+            a0 = mem_alloc()
+            t0 = ticks_us()
+            r = fn()
+            t1 = ticks_us()
+            a1 = mem_alloc()
+            US[slot] += ticks_diff(t1, t0)
+            BYTES[slot] += a1 - a0
+            CALLS[slot] += 1
+            return r
+    elif nargs == 1:
+        def w(a):
+            a0 = mem_alloc()
+            t0 = ticks_us()
+            r = fn(a)
+            t1 = ticks_us()
+            a1 = mem_alloc()
+            US[slot] += ticks_diff(t1, t0)
+            BYTES[slot] += a1 - a0
+            CALLS[slot] += 1
+            return r
+    elif nargs == 2:
+        def w(a, b):
+            a0 = mem_alloc()
+            t0 = ticks_us()
+            r = fn(a, b)
+            t1 = ticks_us()
+            a1 = mem_alloc()
+            US[slot] += ticks_diff(t1, t0)
+            BYTES[slot] += a1 - a0
+            CALLS[slot] += 1
+            return r
+    elif nargs == 3:
+        def w(a, b, c):
+            a0 = mem_alloc()
+            t0 = ticks_us()
+            r = fn(a, b, c)
+            t1 = ticks_us()
+            a1 = mem_alloc()
+            US[slot] += ticks_diff(t1, t0)
+            BYTES[slot] += a1 - a0
+            CALLS[slot] += 1
+            return r
+    elif nargs == 4:
+        def w(a, b, c, d):
+            a0 = mem_alloc()
+            t0 = ticks_us()
+            r = fn(a, b, c, d)
+            t1 = ticks_us()
+            a1 = mem_alloc()
+            US[slot] += ticks_diff(t1, t0)
+            BYTES[slot] += a1 - a0
+            CALLS[slot] += 1
+            return r
+    else:
+        def w(*args):
+            a0 = mem_alloc()
+            t0 = ticks_us()
+            r = fn(*args)
+            t1 = ticks_us()
+            a1 = mem_alloc()
+            US[slot] += ticks_diff(t1, t0)
+            BYTES[slot] += a1 - a0
+            CALLS[slot] += 1
+            return r
+    return w
+
+
+def probe(obj, attr, name, nargs, nested=False):
+    slot = len(NAMES)
+    NAMES.append(name)
+    NESTED.append(nested)
+    setattr(obj, attr, _wrap(slot, getattr(obj, attr), nargs))
+
+
+class _Noop:
+    def f(self, a, b, c):
+        return a
+
+
+def _clear():
+    for i in range(len(US)):
+        US[i] = 0
+        BYTES[i] = 0
+        CALLS[i] = 0
+
+
+def _passes(board, f, t, passes):
+    """passes timed steps, one at a time with the GC off; (µs, bytes) totals and the clock."""
+    us = 0
+    nbytes = 0
+    for _ in range(passes):
+        collect_garbage()
+        disable_gc()
+        a0 = mem_alloc()
+        t0 = ticks_us()
+        t += 1000
+        board.t = t
+        f.step(t)
+        t1 = ticks_us()
+        a1 = mem_alloc()
+        enable_gc()
+        us += ticks_diff(t1, t0)
+        nbytes += a1 - a0
+    return us, nbytes, t
+
+
+def install_stages(board, f):
+    """Probes on what Flight.step calls (the slow tasks as whole calls)."""
+    probe(board, "read_imu", "read_imu", 2)
+    probe(f.alignment, "apply", "alignment (math)", 1)
+    probe(f.gyro_filter, "update", "gyro_filter (math)", 3)
+    probe(f.accel_filter, "update", "accel_filter (math)", 2)
+    probe(f.mahony, "update", "mahony (math)", 5)
+    probe(f.rc, "update", "rc.update", 1)
+    probe(f, "command", "flight.command", 1)
+    probe(f.controller, "update", "controller (math)", 7)
+    probe(f.mixer, "update", "mixer", 4)
+    probe(f.output, "update", "output.update", 3)
+    probe(f.motor_test, "update", "motor_test", 5)
+    probe(board, "write_motors", "write_motors", 2)
+    probe(f.scheduler, "pass_started", "scheduler.pass_started", 1)
+    probe(f.scheduler, "run", "scheduler.run (+tasks)", 1)
+
+
+def install_tasks(board, f):
+    """Probes on the slow tasks as whole calls."""
+    for task in f.scheduler.tasks:
+        probe(task, "fn", "task_" + task.name, 1, True)
+
+
+def install_nested(board, f):
+    """Probes inside the slow tasks, on a flight of their own: gc.mem_alloc() walks the heap, so a probe
+    inside a probed call would add its walk to the outer figure."""
+    probe(f.receiver, "update", "receiver.update", 2, True)
+    probe(f.rc, "fs_switch_in", "rc.fs_switch_in", 1, True)
+    probe(f.rc, "new_frame", "rc.new_frame", 1, True)
+    probe(f.receiver, "copy_channels", "receiver.copy_channels", 1, True)
+    probe(f.arming, "on_switch", "arming.on_switch", 2, True)
+    probe(f.receiver, "telemetry_due", "receiver.telemetry_due", 1, True)
+    probe(f.faults, "check_imu", "faults.check_imu", 2, True)
+    probe(f.faults, "check_load", "faults.check_load", 4, True)
+    probe(f.faults, "check_crash", "faults.check_crash", 6, True)
+    probe(f.rc, "throttle_low", "rc.throttle_low", 0, True)
+    probe(f.bit, "update", "bit.update", 5, True)
+    probe(f.arming, "check", "arming.check", 8, True)
+    probe(f.autopilot, "update", "autopilot.update", 2, True)
+    probe(f.failsafe, "observe", "failsafe.observe", 6, True)
+    probe(f.failsafe, "update", "failsafe.update", 8, True)
+
+
+def _measure(board, f, t, passes, runs, probe_us, probe_b, best):
+    for _ in range(runs):
+        _clear()
+        _, _, t = _passes(board, f, t, passes)
+        for i in range(len(NAMES)):
+            if CALLS[i]:
+                per_us = US[i] / CALLS[i] - probe_us
+                per_b = BYTES[i] / CALLS[i] - probe_b
+                if best[i] is None or per_us < best[i][0]:
+                    best[i] = (per_us, per_b, CALLS[i] / passes)
+    return t
+
+
+def main():
+    passes = 2000 if IS_MICROPYTHON else 20000
+    runs = 3
+    board, f, t = armed_flight()
+    step_us = None
+    step_bytes = 0
+    for _ in range(runs):
+        us, nbytes, t = _passes(board, f, t, passes)
+        if step_us is None or us < step_us:
+            step_us = us
+            step_bytes = nbytes
+    # the probe's own cost: a wrapped no-op, called as the stages are
+    noop = _Noop()
+    probe(noop, "f", "noop", 3)
+    best_probe = None
+    for _ in range(runs):
+        _clear()
+        for _ in range(passes):
+            collect_garbage()
+            disable_gc()
+            noop.f(1, 2, 3)
+            enable_gc()
+        if best_probe is None or US[0] < best_probe:
+            best_probe = US[0]
+            probe_bytes = BYTES[0]
+    probe_us = best_probe / passes
+    probe_b = probe_bytes / passes
+    NAMES.pop()
+    NESTED.pop()
+    install_stages(board, f)
+    best = [None] * 64
+    _measure(board, f, t, passes, runs, probe_us, probe_b, best)
+    board, f, t = armed_flight()
+    install_tasks(board, f)
+    _measure(board, f, t, passes, runs, probe_us, probe_b, best)
+    board, f, t = armed_flight()
+    install_nested(board, f)
+    _measure(board, f, t, passes, runs, probe_us, probe_b, best)
+    self_us = step_us / passes
+    parts = []
+    for nested in (False, True):
+        items = []
+        for i in range(len(NAMES)):
+            if NESTED[i] != nested or best[i] is None:
+                continue
+            per_us, per_b, per_pass = best[i]
+            if not nested:
+                self_us -= per_us * per_pass
+            items.append('"%s": [%.2f, %.1f, %.2f, %.2f]' % (NAMES[i], per_us, per_b, per_pass, per_us * per_pass))
+        parts.append("{" + ", ".join(items) + "}")
+    runtime = "micropython" if IS_MICROPYTHON else "cpython"
+    print('{"runtime": "%s", "passes": %d, "step_us": %.2f, "step_bytes": %.1f, "probe_us": %.2f, '
+          '"probe_bytes": %.1f, "step_self_us": %.2f, "stages": %s, "nested": %s}'
+          % (runtime, passes, step_us / passes, step_bytes / passes, probe_us, probe_b, self_us, parts[0], parts[1]))
+
+
+main()
+sys.stdout.flush()
