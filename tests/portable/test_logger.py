@@ -362,7 +362,7 @@ def test_pass_record_and_one_pack_write_the_same_log():
             f.logger.record_path = record
 
         f, sink = _fly(30, setup=setup)
-        assert (f.logger._rv is not None) == (record and f.signals.record.backed)
+        assert (f.logger._rec is not None) == (record and f.signals.record.backed)
         logs.append(bytes(sink.data))
     assert logs[1] == logs[0]
 

@@ -301,7 +301,13 @@ class Logger:
         self._srcs = ()
         self._rawf = _raw
         self.record_path = True  # use the signals' pass record where it is backed (tests turn it off)
-        self._rv = None
+        # The pass record path (_record_views): the record's bytes (None: the frame is packed), where
+        # its two runs of changing scalars start, and views of its constant fields.
+        self._rec = None
+        self._at_thrust = 0  # thrust_body[2], reset_integral
+        self._at_tpa = 0  # tpa, i_active, airmode_active, saturated, mode
+        self._nout = None  # actuator_outputs.noutputs
+        self._integral_dt = ()  # sensor_combined gyro_integral_dt, accelerometer_integral_dt
         self._fast_n = struct.calcsize(self._fmt)  # a whole number of 8-byte words (core/logframe.py)
         self._rc_n = struct.calcsize(_RC_PACK)
         # The stage: up to `_batch` fast frames at a stride of _fast_n bytes, and room after them for
@@ -311,13 +317,12 @@ class Logger:
         self._stage = bytearray(self._batch * (self._fast_n + self._rc_n))
         self._stage_mv = memoryview(self._stage)
         self._rc_stage = bytearray(self._batch * self._rc_n)
-        self._t_column = array("Q", bytes(8 * self._batch))  # the staged frames' times (record path)
+        self._t_column = array("Q", bytes(8 * self._batch))  # the staged frames' times
         self._t_views = ()  # each fast timestamp field of the staged frames as a 'Q' view
         self._staged = 0  # staged fast frames
         self._rc_off = 0  # staged input_rc bytes
         self._staged_rc = 0  # staged input_rc samples
         self._imu_fresh = True  # the record's integral_dt fields hold _dt_us (else 0: no new sample)
-        self._staged_t64 = 0  # time of the first staged frame
         self._rc_header = b"\0" * 5
         self._ids = {}
         self._sink_free = None
@@ -357,10 +362,8 @@ class Logger:
         self.rate_hz = rate
         self._dt_us = 1000000 // loop_hz  # gyro_integral_dt of a pass with a new IMU sample
         self._pass_us = self._dt_us
-        rv = self._rv
-        if rv is not None:  # the record's constant fields: motor count, a new sample's integral_dt
-            rv[6][0] = self.flight.motor_count
-            rv[7][0] = rv[8][0] = self._dt_us if self._imu_fresh else 0
+        if self._rec is not None:
+            self._record_constants()
         self._apply_rate()
 
     def _apply_rate(self):
@@ -444,7 +447,7 @@ class Logger:
         self._ctx = (sig.setpoint, c, f.mixer, f.rc, f.params)
         self._srcs = (sig.attitude.q, sig.gyro_rad_s, sig.setpoint.rate_rad_s, sig.motor_out,
                       sig.gyro_raw_rad_s, sig.accel_raw_m_s2, sig.torque_norm, c.terms)
-        self._rv = self._record_views(getattr(sig, "record", None), headers)
+        self._rec = self._record_views(getattr(sig, "record", None), headers)
         self._rawf = _raw if isinstance(sig.gyro_rad_s, array) else _raw_view
         ch = sig.rc_channels_us
         self._rc_whole = len(ch) == _RC_CHANNELS and len(bytes(ch)) == 2 * _RC_CHANNELS
@@ -467,9 +470,9 @@ class Logger:
 
     def _record_views(self, record, headers):
         """The pass record path: when the signals' logged arrays are views into one frame-shaped
-        block (core/logframe.py), the headers go in once and every pass stores the scalars
-        through views and copies the block. None when they are not (MicroPython, or an array
-        replaced since): the frame is packed instead."""
+        block (core/logframe.py), the headers and constant fields go in once, every pass packs
+        the changing scalars into it and copies the block; returns the block's bytes. None when
+        they are not (MicroPython, or an array replaced since): the frame is packed instead."""
         if record is None or not record.backed or not self.record_path:
             return None
         for k in range(len(ARRAY_FIELDS)):
@@ -484,15 +487,24 @@ class Logger:
         words = (self._batch - 1) * (n // 8) + 1  # from the field in frame 0 to it in the last frame
         self._t_views = tuple(self._stage_mv[off : off + 8 * words].cast("Q") for off, _ in field_offsets("Q"))
         ints = [record.view(off, "I") for off, _ in field_offsets("I")]
-        ints[0][0] = self.flight.motor_count  # noutputs: set again by configure
-        ints[1][0] = self._dt_us  # gyro and accelerometer integral_dt: a new sample, until a pass has none
-        ints[2][0] = self._dt_us
+        self._nout = ints[0]
+        self._integral_dt = (ints[1], ints[2])
         self._imu_fresh = True
+        self._record_constants()
         # The scalars that change pass to pass come in two runs, each one pack: thrust_body[2] and
         # reset_integral; tpa, i_active, airmode_active, saturated and mode.
         floats = field_offsets("f")
-        return (self._stage, buf, self._t_column, struct.pack_into, floats[0][0], floats[1][0], ints[0], ints[1],
-                ints[2])
+        self._at_thrust = floats[0][0]
+        self._at_tpa = floats[1][0]
+        return buf
+
+    def _record_constants(self):
+        """The record's fields that change only on configure, or when a pass has no new IMU sample
+        (integral_dt 0, until the samples come again)."""
+        self._nout[0] = self.flight.motor_count
+        dt = self._dt_us if self._imu_fresh else 0
+        self._integral_dt[0][0] = dt
+        self._integral_dt[1][0] = dt
 
     # ------------------------------------------------------------------ the pass
     def update(self, now_us):
@@ -516,16 +528,20 @@ class Logger:
             t = self._t64
         sp, c, mixer, rc, params = self._ctx
         i = self._staged
-        if i == 0:
-            self._staged_t64 = t  # the pack path's; the record path's is the column's first
-        rv = self._rv
-        if rv is not None:
+        self._t_column[i] = t
+        rec = self._rec
+        if rec is not None:
             if self._every_pass:
                 self._use_fast_update(True)
-            self._t_column[i] = t
-            self._record_scalars(now_us, rv)
+            i_active = f.i_active
+            struct.pack_into("<f?", rec, self._at_thrust, -sp.throttle_norm, not i_active)
+            struct.pack_into("<f???B", rec, self._at_tpa, c.tpa, i_active, f.airmode_active, mixer.saturated,
+                             sp.mode)
+            if (f.imu_us == now_us) is not self._imu_fresh:
+                self._imu_fresh = not self._imu_fresh
+                self._record_constants()
             n = self._fast_n
-            rv[0][i * n : i * n + n] = rv[1]
+            self._stage[i * n : i * n + n] = rec
         else:
             self._pack(i * self._fast_n, t, now_us, sp, c, mixer)
         i += 1
@@ -537,21 +553,6 @@ class Logger:
             self._batch_full(now_us, t)
         if params.changed != self._par_seen:
             self._log_param_changes(t)
-
-    def _record_scalars(self, now_us, rv):
-        """The pass's changing scalars into the record, in two packs: thrust_body[2] and
-        reset_integral; tpa, i_active, airmode_active, saturated and mode. integral_dt only
-        changes when a pass has no new IMU sample (0) and when they come again."""
-        f = self.flight
-        sp, c, mixer = self._ctx[0:3]
-        buf, pack_into, at_thrust, at_tpa = rv[1], rv[3], rv[4], rv[5]
-        i_active = f.i_active
-        pack_into("<f?", buf, at_thrust, -sp.throttle_norm, not i_active)
-        pack_into("<f???B", buf, at_tpa, c.tpa, i_active, f.airmode_active, mixer.saturated, sp.mode)
-        fresh = f.imu_us == now_us
-        if fresh is not self._imu_fresh:
-            self._imu_fresh = fresh
-            rv[7][0] = rv[8][0] = self._dt_us if fresh else 0
 
     def _use_fast_update(self, on):
         """Install (on) or remove the every-pass record-path update as this logger's `update`."""
@@ -565,19 +566,22 @@ class Logger:
 
     def _fast_update(self):
         """`update` for the common case, logging every pass into the pass record (CPython): the
-        same steps as update() with everything it reads bound once, as a closure. The stages wrote
-        the arrays into the record; the constant fields were set once; the time goes in a column
-        the batch's flush spreads over its frames; two packs store the changing scalars; the
-        record is copied into the stage. Anything else (a new receiver frame, a full batch, a
-        parameter change) goes the same way as in update()."""
+        same steps as update()'s record path with everything it reads bound once, as a closure
+        (the every-pass path's attribute look-ups and branches cost more than the logging). The
+        stages wrote the arrays into the record; the constant fields were set once; the time goes
+        in a column the batch's flush spreads over its frames; two packs store the changing
+        scalars; the record is copied into the stage."""
         lg = self
         f = self.flight
         sp, c, mixer, rc, params = self._ctx
-        stage, buf, t_column, pack_into, at_thrust, at_tpa = self._rv[0:6]
+        stage = self._stage
+        buf = self._rec
+        t_column = self._t_column
+        pack_into = struct.pack_into
+        at_thrust = self._at_thrust
+        at_tpa = self._at_tpa
         n = self._fast_n
         batch_n = self._batch_n
-        record_scalars = self._record_scalars
-        rv = self._rv
 
         def update(now_us):
             t = lg._t64 + f.pass_dt_us
@@ -588,7 +592,8 @@ class Logger:
             pack_into("<f?", buf, at_thrust, -sp.throttle_norm, not i_active)
             pack_into("<f???B", buf, at_tpa, c.tpa, i_active, f.airmode_active, mixer.saturated, sp.mode)
             if (f.imu_us == now_us) is not lg._imu_fresh:
-                record_scalars(now_us, rv)
+                lg._imu_fresh = not lg._imu_fresh
+                lg._record_constants()
             off = i * n
             stage[off : off + n] = buf
             i += 1
@@ -651,7 +656,7 @@ class Logger:
         if frames == 0:
             return
         n = frames * self._fast_n
-        if self._rv is not None:
+        if self._rec is not None:
             # Each timestamp field of the staged frames, one strided store from the column (the
             # views' stride is the frame's size in 8-byte words).
             col = memoryview(self._t_column)[:frames]
@@ -667,8 +672,7 @@ class Logger:
         self._staged = 0
         self._rc_off = 0
         self._staged_rc = 0
-        first_t = self._t_column[0] if self._rv is not None else self._staged_t64
-        if self._write(self.sink, self._stage_mv[:n], first_t):
+        if self._write(self.sink, self._stage_mv[:n], self._t_column[0]):
             self.frames += frames
             self.rc_frames += rc
             self.bytes += n
