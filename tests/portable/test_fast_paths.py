@@ -10,34 +10,18 @@ stage stores float32). Portable: runs under pytest and tests/portable/mprun.py.
 import math
 from array import array
 
+from fastpathkit import Rand as _Rand
+from fastpathkit import params as _params
+
 from hoverfly.core.control import MODE_ACRO, MODE_ANGLE, MODE_HORIZON, Controller
 from hoverfly.core.estimator import Attitude, Mahony
 from hoverfly.core.filters import AccelFilter, Biquad, GyroFilter, LowPass, Pt1, Pt2
 from hoverfly.core.mixer import MIXER_TABLES, Mixer
-from hoverfly.core.params import Params
 from hoverfly.core.pid import AxisPid
 from hoverfly.core.rates import ActualRates
 from hoverfly.core.signals import Setpoint
 
 _G = 9.80665
-
-
-class _Rand:
-    """Deterministic -1..1 numbers (LCG): the same sequence on CPython and MicroPython."""
-
-    def __init__(self, seed):
-        self.s = seed
-
-    def __call__(self):
-        self.s = (self.s * 1103515245 + 12345) & 0x7FFFFFFF
-        return self.s / 0x7FFFFFFF * 2.0 - 1.0
-
-
-def _params(**kw):
-    p = Params()
-    for k, v in kw.items():
-        p.set(k, v)
-    return p
 
 
 def test_gyro_filter_equals_the_per_axis_chain_for_every_filter_choice():
@@ -270,7 +254,7 @@ def test_mahony_equals_the_plain_formula_in_and_out_of_trust_with_and_without_bi
 
 
 def test_controller_angle_and_horizon_equal_the_plain_formula():
-    p = Params()
+    p = _params()
     c = Controller()
     c.configure(p, 1000)
     att = Attitude()

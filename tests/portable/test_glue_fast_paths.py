@@ -12,32 +12,16 @@ plain way (the shapes the stages had before), and the outputs must be the same b
 import struct
 from array import array
 
+from fastpathkit import Rand as _Rand
+from fastpathkit import params as _params
+
 from hoverfly.core.output import OutputEncoder, OutputStage
-from hoverfly.core.params import Params
 from hoverfly.core.rc import RcInput
 from hoverfly.core.signals import Setpoint
 from hoverfly.drivers.imu import signed16
 from hoverfly.drivers.mpu6050 import MPU6050, WHO_AM_I_VALUE
 from hoverfly.drivers.orientation import Orientation
 from hoverfly.protocols.dshot import VALUE_MAX, DshotEncoder, dshot_frame
-
-
-class _Rand:
-    """Deterministic -1..1 numbers (LCG): the same sequence on CPython and MicroPython."""
-
-    def __init__(self, seed):
-        self.s = seed
-
-    def __call__(self):
-        self.s = (self.s * 1103515245 + 12345) & 0x7FFFFFFF
-        return self.s / 0x7FFFFFFF * 2.0 - 1.0
-
-
-def _params(**kw):
-    p = Params()
-    for k, v in kw.items():
-        p.set(k, v)
-    return p
 
 
 def _bits_f(a, n):
