@@ -114,7 +114,10 @@ class BenchBoard(Board):
         self.encoder.write(out, n, self.t)
 
 
-def run(passes):
+def armed_flight():
+    """The bench flight, calibrated and armed: (board, flight, time of its last pass in µs).
+    bench/core_stages.py times the same flight stage by stage."""
+    collect_garbage()  # the last run's flight first: two do not fit a 320 KB heap on the 64-bit VM
     board = BenchBoard()
     f = Flight(board)
     f.params.set("gyro_cal_ms", 100)
@@ -122,12 +125,16 @@ def run(passes):
     f.params.set("min_check", 1500)
     f.start(0)
     t = 0
-    # warm up: calibrate, arm
     for _ in range(3000):
         t += 1000
         board.t = t
         f.step(t)
     assert f.arming.armed, "bench flight did not arm"
+    return board, f, t
+
+
+def run(passes):
+    board, f, t = armed_flight()
     # One pass at a time with the GC off, collecting between passes (untimed): the pass itself
     # is measured, as on the device where the collection runs in the loop's slack. (One pass:
     # the core loaded from source leaves little of a 320 KB heap on the 64-bit VM.)
@@ -165,5 +172,6 @@ def main():
           % (runtime, best, alloc, passes))
 
 
-main()
-sys.stdout.flush()
+if __name__ == "__main__":
+    main()
+    sys.stdout.flush()

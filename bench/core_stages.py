@@ -1,6 +1,6 @@
 """Where the flight pass goes: µs and bytes per call of each stage of bench/core_loop.py's armed flight.
 
-Builds the same board and armed flight as bench/core_loop.py (MPU-6050 burst through the driver,
+Takes bench/core_loop.py's armed flight (`armed_flight()`: an MPU-6050 burst through the driver,
 a CRSF frame every 4th pass, DShot words), then times every stage call separately: each stage
 method is replaced on its instance by a wrapper that reads ticks_us() and gc.mem_alloc() around
 the real call (GC disabled for the pass, collected between passes, untimed). The wrapper's own
@@ -22,18 +22,9 @@ are already counted in it. Per-call figures are the best (lowest) of three runs.
 
 import sys
 
-if sys.implementation.name == "micropython":
-    # As bench/core_loop.py: compile the core leaves first, collecting in between.
-    import gc
-
-    for _name in ("drivers.orientation", "drivers.imu", "drivers.mpu6050", "core.params", "core.events",
-                  "core.filters", "core.control", "core.estimator", "core.mixer", "core.arming", "core.failsafe",
-                  "core.rc", "core.scheduler", "core.signals", "core.output", "core.receiver", "core.logger",
-                  "core.flight"):
-        gc.collect()
-        __import__("hoverfly." + _name)
-    gc.collect()
-
+# The flight bench/core_loop.py times whole (importing it also compiles the core leaves first on
+# MicroPython, collecting in between; both runtimes put the script's folder on sys.path).
+from core_loop import armed_flight
 from hoverfly.compat import (
     IS_MICROPYTHON,
     collect_garbage,
@@ -43,92 +34,6 @@ from hoverfly.compat import (
     ticks_diff,
     ticks_us,
 )
-from hoverfly.core.board import Board
-from hoverfly.core.flight import Flight
-from hoverfly.core.output import OutputEncoder
-from hoverfly.drivers.mpu6050 import MPU6050, WHO_AM_I_VALUE
-from hoverfly.drivers.orientation import Orientation
-from hoverfly.protocols.crsf import encode_rc_frame
-
-
-# ------------------------------------------------------------- the bench flight (as bench/core_loop.py)
-class BurstBus:
-    def __init__(self):
-        self.burst = bytes(14)
-
-    def readfrom_mem_into(self, address, register, buf):
-        if len(buf) == 1:
-            buf[0] = WHO_AM_I_VALUE
-        else:
-            buf[:] = self.burst
-
-    def writeto_mem(self, address, register, data):
-        pass
-
-
-def _burst(gx, gy, gz):
-    b = bytearray(14)
-    for k, v in ((0, 20), (1, 20), (2, 2008), (3, 0), (4, gx), (5, -gy), (6, -gz)):
-        v &= 0xFFFF
-        b[2 * k] = v >> 8
-        b[2 * k + 1] = v & 0xFF
-    return b
-
-
-class BenchBoard(Board):
-    def __init__(self):
-        self.t = 0
-        self.k = 0
-        self.polls = 0
-        self.bursts = (_burst(10, 20, -5), _burst(-10, 21, -5), _burst(3, 20, -6))
-        self.frames = []
-        for arm_us, roll_us in ((1000, 1500), (2000, 1500), (2000, 1507)):
-            ch = [roll_us, 1500, 1400, 1500, arm_us, 2000] + [1500] * 10
-            self.frames.append(bytes(encode_rc_frame(ch)))
-        self.encoder = OutputEncoder()
-        self.bus = BurstBus()
-        self.imu = MPU6050(self.bus, Orientation(), delay_us=lambda us: None)
-        self.imu.configure()
-
-    def now_us(self):
-        return self.t
-
-    def read_imu(self, gyro, accel):
-        self.k += 1
-        self.bus.burst = self.bursts[self.k % 3]
-        return self.imu.read(gyro, accel)
-
-    def read_rx(self, buf):
-        self.polls += 1
-        if self.polls & 1:
-            return 0
-        f = self.frames[0] if self.polls < 800 else self.frames[1 + ((self.polls >> 1) & 1)]
-        n = len(f)
-        buf[0:n] = f
-        return n
-
-    def configure_outputs(self, params, motor_count, servo_count):
-        self.encoder.configure(params, motor_count, servo_count, self.t)
-
-    def write_motors(self, out, n):
-        self.encoder.write(out, n, self.t)
-
-
-def armed_flight():
-    board = BenchBoard()
-    f = Flight(board)
-    f.params.set("gyro_cal_ms", 100)
-    f.params.set("boot_grace_ms", 0)
-    f.params.set("min_check", 1500)
-    f.start(0)
-    t = 0
-    for _ in range(3000):
-        t += 1000
-        board.t = t
-        f.step(t)
-    assert f.arming.armed, "bench flight did not arm"
-    return board, f, t
-
 
 # ------------------------------------------------------------------------------------ the probes
 # One slot per probe: total µs, bytes and calls. Small ints only, so the bookkeeping allocates nothing.
