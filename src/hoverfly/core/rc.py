@@ -192,11 +192,10 @@ class RcInput:
         s = sp.stick_norm
         r = sp.rate_rad_s
         raw = self.stick_raw
-        for i in range(3):
-            x = raw[i]
-            if still[i] and x == held[i]:
-                s[i] = out[i]
-            else:
+        for i in range(4):  # roll, pitch, yaw, throttle
+            x = raw[i] if i < 3 else self.throttle_raw
+            moved = not (still[i] and x == held[i])
+            if moved:
                 flt = f[i]
                 k = flt.k
                 s1 = flt.s1
@@ -208,28 +207,16 @@ class RcInput:
                 still[i] = s1_new == s1 and y_new == y
                 held[i] = x
                 out[i] = y_new
-                s[i] = y_new
-                v = s[i]  # the stored (float32) value, as fill_setpoint reads it
-                self._rate_rad_s[i] = self.rates[i].rate_rad_s(v)
-                if i < 2:
-                    self._angle_rad[i] = v * self.angle_limit_rad
-            r[i] = self._rate_rad_s[i]
-        x = self.throttle_raw
-        if still[3] and x == held[3]:
-            sp.throttle_norm = out[3]
-        else:
-            flt = f[3]
-            k = flt.k
-            s1 = flt.s1
-            y = flt.y
-            s1_new = s1 + k * (x - s1)
-            y_new = y + k * (s1_new - y)
-            flt.s1 = s1_new
-            flt.y = y_new
-            still[3] = s1_new == s1 and y_new == y
-            held[3] = x
-            out[3] = y_new
-            sp.throttle_norm = y_new
+            if i == 3:
+                sp.throttle_norm = out[3]
+            else:
+                s[i] = out[i]
+                if moved:
+                    v = s[i]  # the stored (float32) value, as fill_setpoint reads it
+                    self._rate_rad_s[i] = self.rates[i].rate_rad_s(v)
+                    if i < 2:
+                        self._angle_rad[i] = v * self.angle_limit_rad
+                r[i] = self._rate_rad_s[i]
         sp.roll_angle_rad = self._angle_rad[0]
         sp.pitch_angle_rad = self._angle_rad[1]
 
