@@ -5,15 +5,15 @@ Run: `.venv/bin/python bench/log_loop.py` and
 Prints one JSON object: us_per_pass without and with logging (the fastest 20-pass batch of each;
 blackbox_rate_hz = loop_hz = 1000: every pass writes the six fast topics, input_rc on each
 receiver frame, the slow topics ten times a second). The log goes where `hoverfly fly --log`
-sends it: on CPython through hoverfly.logs.writer.FileLog into a file (os.devnull), its drain()
-called after every pass as the simulator does (the ring written out a quarter at a time), file
-writes included; on MicroPython into a 24 KiB RingSink drained to a counting writer by the same
-rule. log_us_per_pass (the median over all rounds of the difference
+sends it: on CPython through hoverfly.logs.writer.FileLog into a file (os.devnull), the logger's
+sink: its ring written out a quarter at a time by the write that fills it, file writes included; on
+MicroPython into a 24 KiB RingSink written out to a counting writer by the same rule.
+log_us_per_pass (the median over all rounds of the difference
 between a batch with logging and the batch without it run just before: a shared host slows
 whole stretches, and a paired difference cancels them), log_pct (log_us_per_pass against the
 pass without logging, goal <= 10 on CPython), log_us_best_diff (the difference of the two fastest
 batches, the older figure), log_us_mean (the difference over all batches), task_us
-(Logger.update and the drain timed alone) and bytes_per_s written; on
+(Logger.update timed alone, its writes included) and bytes_per_s written; on
 MicroPython also alloc_off/alloc_on, heap bytes allocated per pass without and with logging. Best
 of several runs, armed, angle mode, a CRSF frame every 4th pass.
 """
@@ -90,13 +90,23 @@ class _Board(Board):
 
 
 class _RingLog:
-    """FileLog's policy without a file (MicroPython): a ring drained a quarter at a time, counted."""
+    """FileLog's policy without a file (MicroPython): the logger's sink, a ring written out a quarter at
+    a time to a counter."""
 
     def __init__(self, flight):
         self.ring = RingSink(24 * 1024)
         self._threshold = self.ring.size // 4
         self.bytes_written = 0
-        flight.logger.open(self.ring)
+        flight.logger.open(self)
+
+    def write(self, data):
+        n = self.ring.write(data)
+        if self.ring.used >= self._threshold:
+            self.ring.drain(self._write)
+        return n
+
+    def free(self):
+        return self.ring.free()
 
     def _write(self, mv):
         self.bytes_written += len(mv)
@@ -123,8 +133,6 @@ def _flight(log_on):
         t += 1000
         board.k += 1
         f.step(t)
-        if log is not None:
-            log.drain()
     assert f.arming.armed, "bench flight did not arm"
     return f, board, log, t
 
@@ -138,23 +146,11 @@ def _batch(f, board, t):
     return ticks_diff(ticks_us(), t0), t
 
 
-def _batch_log(f, board, t, drain):
-    """_batch with the log written out after every pass, as the simulator does."""
-    t0 = ticks_us()
-    for _ in range(BATCH):
-        t += 1000
-        board.k += 1
-        f.step(t)
-        drain()
-    return ticks_diff(ticks_us(), t0), t
-
-
 def run_pair():
     """The same flight with and without logging, batch for batch in turn; the fastest batch of each
     (a busy host slows some batches, never speeds one up)."""
     f0, b0, _, t0 = _flight(False)
     f1, b1, log, t1 = _flight(True)
-    drain = log.drain
     log.drain(True)
     written0 = log.bytes_written
     best_off = None
@@ -168,7 +164,7 @@ def run_pair():
         us_off, t0 = _batch(f0, b0, t0)
         sum_off += us_off
         best_off = us_off if best_off is None or us_off < best_off else best_off
-        us, t1 = _batch_log(f1, b1, t1, drain)
+        us, t1 = _batch(f1, b1, t1)
         sum_on += us
         best_on = us if best_on is None or us < best_on else best_on
         diffs.append(us - us_off)
@@ -179,14 +175,11 @@ def run_pair():
     alloc = ""
     if IS_MICROPYTHON:  # heap bytes per pass, from one batch with the collector off
         per = []
-        for f, board, t, batch in ((f0, b0, t0, _batch), (f1, b1, t1, None)):
+        for f, board, t in ((f0, b0, t0), (f1, b1, t1)):
             collect_garbage()
             disable_gc()
             m0 = gc.mem_alloc()
-            if batch is None:
-                _batch_log(f, board, t, drain)
-            else:
-                _batch(f, board, t)
+            _batch(f, board, t)
             per.append((gc.mem_alloc() - m0) // BATCH)
             enable_gc()
         alloc = ', "alloc_off": %d, "alloc_on": %d' % (per[0], per[1])
@@ -198,7 +191,6 @@ def run_pair():
 def task_alone():
     f, board, log, t = _flight(True)
     task = f.logger.update
-    drain = log.drain
     best = None
     for _ in range(RUNS):
         collect_garbage()
@@ -208,7 +200,6 @@ def task_alone():
             for _ in range(BATCH):
                 t += 1000
                 task(t)
-                drain()
             total += ticks_diff(ticks_us(), t0)
         us = total / PASSES
         best = us if best is None or us < best else best

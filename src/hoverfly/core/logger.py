@@ -582,6 +582,7 @@ class Logger:
         at_tpa = self._at_tpa
         n = self._fast_n
         batch_n = self._batch_n
+        slots = tuple(slice(k * n, k * n + n) for k in range(batch_n))  # each staged frame's bytes
 
         def update(now_us):
             t = lg._t64 + f.pass_dt_us
@@ -594,8 +595,7 @@ class Logger:
             if (f.imu_us == now_us) is not lg._imu_fresh:
                 lg._imu_fresh = not lg._imu_fresh
                 lg._record_constants()
-            off = i * n
-            stage[off : off + n] = buf
+            stage[slots[i]] = buf
             i += 1
             lg._staged = i
             if rc.frames != lg._rc_seen:

@@ -1,10 +1,11 @@
 """Host side of the flight log: a file fed from the logger's ring, for the simulator and Linux.
 
-`attach(run_or_flight, path)` opens `path`, gives the flight's logger a RingSink and returns
-a `FileLog`; call `drain()` after each pass (it writes only once the ring is a quarter full,
-so most passes cost one comparison) and `close()` at the end, which writes out the rest and
-closes the file. `SimRun(log_path=...)` (and so `hoverfly fly --log`) does exactly that;
-`hoverfly sim --log` and anything else that steps a Flight can call it the same way.
+`attach(run_or_flight, path)` opens `path`, becomes the flight's logger's sink and returns a
+`FileLog`. What the logger writes goes into a RingSink; a write that leaves the ring a quarter full
+writes the ring out to the file then and there, so nothing has to be called between passes (the
+logger writes once a batch, so the passes in between cost nothing here). `close()` at the end writes
+out the rest and closes the file. `SimRun(log_path=...)` (and so `hoverfly fly --log`) does exactly
+that; `hoverfly sim --log` and anything else that steps a Flight can use it the same way.
 """
 
 import os
@@ -29,7 +30,17 @@ class FileLog:
         self._threshold = ring_bytes // 4
         self.bytes_written = 0
         self.closed = False
-        flight.logger.open(self.ring)
+        flight.logger.open(self)
+
+    # The logger's sink: the ring's write and free, and the ring out to the file once a quarter full.
+    def write(self, data):
+        n = self.ring.write(data)
+        if self.ring.used >= self._threshold:
+            self.ring.drain(self._write)
+        return n
+
+    def free(self):
+        return self.ring.free()
 
     def _write(self, mv):
         self.file.write(mv)
@@ -37,7 +48,8 @@ class FileLog:
         return None
 
     def drain(self, force=False):
-        """Write the ring out to the file once it holds a quarter of its size (or always, with force)."""
+        """Write the ring out to the file once it holds a quarter of its size (or always, with force).
+        write() does this on its own; this is for a caller that wants the file current now."""
         if force or self.ring.used >= self._threshold:
             self.ring.drain(self._write)
 

@@ -278,8 +278,6 @@ class SimRun:
                 overruns += 1
             if self.on_step is not None:
                 self.on_step(self)
-            if self.log is not None:
-                self.log.drain()
             # judge (on the attitude the pilot saw: at most one loop period old)
             roll, pitch, yaw = euler
             airborne = not v.on_ground
