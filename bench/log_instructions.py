@@ -40,7 +40,9 @@ def _child(log_on, passes):
 def _counts(log_on, passes):
     cmd = ["valgrind", "--tool=callgrind", "--cache-sim=yes", "--branch-sim=yes", "--callgrind-out-file=/dev/null",
            sys.executable, os.path.abspath(__file__), "--child", "on" if log_on else "off", str(passes)]
-    out = subprocess.run(cmd, capture_output=True, text=True, check=True).stderr
+    # One string hash seed for every child: dict and set layouts (so cache misses) follow it.
+    env = dict(os.environ, PYTHONHASHSEED="0")
+    out = subprocess.run(cmd, capture_output=True, text=True, check=True, env=env).stderr
     counts = {}
     for name, pattern in _FIELDS:
         m = re.search(pattern + r":\s+([\d,]+)", out)

@@ -377,8 +377,8 @@ def test_signals_logged_arrays_live_in_the_frame_where_the_runtime_can_view_byte
     assert rec.backed == CAN_VIEW
     assert s.accel_raw_m_s2[2] == struct.unpack("<f", struct.pack("<f", -9.80665))[0]
     assert s.attitude.q[0] == 1.0
-    arrays = (s.attitude.q, s.gyro_rad_s, s.setpoint.rate_rad_s, s.motor_out, s.gyro_raw_rad_s,
-              s.accel_raw_m_s2, s.torque_norm)
+    arrays = (s.attitude.q, s.gyro_rad_s, s.motor_out, s.gyro_raw_rad_s, s.accel_raw_m_s2,
+              s.setpoint.rate_rad_s, s.torque_norm)
     table = array_table()
     for k in range(len(arrays)):
         assert len(arrays[k]) == ARRAY_FIELDS[k][1]

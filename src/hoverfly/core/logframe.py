@@ -23,19 +23,22 @@ MAX_OUTPUTS = 16  # PX4 actuator_outputs.output[16]
 FAST_PACK = (
     "Q16s17x",  # timestamp, q[4]; delta_q_reset and quat_reset_counter stay 0
     "QQ12s12x",  # timestamp, timestamp_sample, xyz[3]; xyz_derivative stays 0
-    "Q12s8xfB",  # timestamp, roll, pitch, yaw, thrust_body = (0, 0, -throttle), reset_integral
     "QI%ds%dx" % (4 * MAX_MOTORS, 4 * (MAX_OUTPUTS - MAX_MOTORS)),  # timestamp, noutputs, output[]; rest 0
     "Q12sI4x12sI4x",  # timestamp, gyro_rad, gyro_integral_dt, accelerometer_m_s2, accelerometer_integral_dt
-    "Q12s48sfBBBB",  # timestamp, sum[3] = torque_norm, p[3] i[3] d[3] f[3] = pid_terms, tpa, i_active, airmode,
-    # saturated, mode
+    "Q12s8xfB",  # timestamp, roll, pitch, yaw, thrust_body = (0, 0, -throttle), reset_integral
+    "QfBBBB12s48s",  # timestamp, tpa, i_active, airmode, saturated, mode, sum[3] = torque_norm,
+    # p[3] i[3] d[3] f[3] = pid_terms
 )
+# The rate setpoint's scalars end its message and hoverfly_pid's start the next one, so the scalars
+# that change pass to pass are one run of the frame (with hoverfly_pid's header and timestamp
+# between them): core/logger.py stores them with one pack a pass.
 # The frame is a whole number of 8-byte words (344 bytes; hoverfly_pid's mode byte makes it so), so
 # the staged frames' timestamps are one strided column per field: core/logger.py fills them once
 # a batch instead of seven stores a pass. (Trailing `_padding` bytes would do the same, but pyulog
 # 1.3 counts a message longer than its fields as corrupt.)
 # The array fields ('s' above) in frame order: the signal each one logs, and its float count.
-ARRAY_FIELDS = (("q", 4), ("gyro_rad_s", 3), ("rate_rad_s", 3), ("motor_out", MAX_MOTORS),
-                ("gyro_raw_rad_s", 3), ("accel_raw_m_s2", 3), ("torque_norm", 3), ("pid_terms", 12))
+ARRAY_FIELDS = (("q", 4), ("gyro_rad_s", 3), ("motor_out", MAX_MOTORS), ("gyro_raw_rad_s", 3),
+                ("accel_raw_m_s2", 3), ("rate_rad_s", 3), ("torque_norm", 3), ("pid_terms", 12))
 HEADER_BYTES = 5  # ULog message header: uint16 size, uint8 'D', uint16 msg_id
 
 

@@ -17,7 +17,7 @@ parameter changes become `P` messages after that run's samples, and a sync marke
 about once a second.
 
 Cost: on CPython the arrays the fast topics record live in the signals' pass record (core/
-logframe.py), laid out as the frame: a logged pass is two packs of the changing scalars, the
+logframe.py), laid out as the frame: a logged pass is one pack of the changing scalars, the
 time into a column and one copy of the record into the staging buffer (`_fast_update`, a
 closure installed as `update` while every pass is logged); the flush spreads the column over
 the batch's seven timestamp fields with one strided store each. Where there is no record
@@ -115,16 +115,16 @@ SENSOR_COMBINED = (
 )
 HOVERFLY_PID = (
     ("uint64_t", "timestamp"),
-    ("float[3]", "sum"),
-    ("float[3]", "p"),
-    ("float[3]", "i"),
-    ("float[3]", "d"),
-    ("float[3]", "f"),
     ("float", "tpa"),
     ("bool", "i_active"),
     ("bool", "airmode_active"),
     ("bool", "saturated"),
     ("uint8_t", "mode"),  # the controller's mode this pass: 0 acro, 1 angle, 2 horizon
+    ("float[3]", "sum"),
+    ("float[3]", "p"),
+    ("float[3]", "i"),
+    ("float[3]", "d"),
+    ("float[3]", "f"),
 )
 INPUT_RC = (
     ("uint64_t", "timestamp"),
@@ -195,12 +195,16 @@ FORMATS = (
     ("hoverfly_loop", HOVERFLY_LOOP),
     ("hoverfly_link", HOVERFLY_LINK),
 )
-FAST_TOPICS = ("vehicle_attitude", "vehicle_angular_velocity", "vehicle_rates_setpoint", "actuator_outputs",
-               "sensor_combined", "hoverfly_pid")
+FAST_TOPICS = ("vehicle_attitude", "vehicle_angular_velocity", "actuator_outputs", "sensor_combined",
+               "vehicle_rates_setpoint", "hoverfly_pid")
 SLOW_TOPICS = ("battery_status", "vehicle_status", "hoverfly_loop", "hoverfly_link")
 
 # The fast frame's layout (FAST_PACK, one struct format per topic after its header) lives in
 # core/logframe.py, with the pass record the signals' logged arrays live in where they can.
+# The record path's changing scalars, one run of the frame (core/logframe.py): rates setpoint
+# thrust_body[2], reset_integral; hoverfly_pid header, timestamp, tpa, i_active, airmode_active,
+# saturated, mode. ('?' is CPython's: the record path is CPython's.)
+_SCALARS = "<f?5sQf???B"
 _RC_PACK = "<5sQQiHH36sBBBBbf"  # values[18] as the raw bytes of an array('H') of 18
 _RC_PACK_VALUES = "<5sQQiHH18HBBBBbf"  # the same from 18 separate ints (any other channel source)
 
@@ -302,10 +306,10 @@ class Logger:
         self._rawf = _raw
         self.record_path = True  # use the signals' pass record where it is backed (tests turn it off)
         # The pass record path (_record_views): the record's bytes (None: the frame is packed), where
-        # its two runs of changing scalars start, and views of its constant fields.
+        # its run of changing scalars starts, and views of its constant fields.
         self._rec = None
-        self._at_thrust = 0  # thrust_body[2], reset_integral
-        self._at_tpa = 0  # tpa, i_active, airmode_active, saturated, mode
+        self._at_thrust = 0  # the run of changing scalars (_SCALARS) from thrust_body[2]
+        self._pid_header = b""  # hoverfly_pid's header, inside that run
         self._nout = None  # actuator_outputs.noutputs
         self._integral_dt = ()  # sensor_combined gyro_integral_dt, accelerometer_integral_dt
         self._fast_n = struct.calcsize(self._fmt)  # a whole number of 8-byte words (core/logframe.py)
@@ -445,8 +449,8 @@ class Logger:
         c = f.controller
         self._headers = tuple(headers)
         self._ctx = (sig.setpoint, c, f.mixer, f.rc, f.params)
-        self._srcs = (sig.attitude.q, sig.gyro_rad_s, sig.setpoint.rate_rad_s, sig.motor_out,
-                      sig.gyro_raw_rad_s, sig.accel_raw_m_s2, sig.torque_norm, c.terms)
+        self._srcs = (sig.attitude.q, sig.gyro_rad_s, sig.motor_out, sig.gyro_raw_rad_s, sig.accel_raw_m_s2,
+                      sig.setpoint.rate_rad_s, sig.torque_norm, c.terms)
         self._rec = self._record_views(getattr(sig, "record", None), headers)
         self._rawf = _raw if isinstance(sig.gyro_rad_s, array) else _raw_view
         ch = sig.rc_channels_us
@@ -491,11 +495,14 @@ class Logger:
         self._integral_dt = (ints[1], ints[2])
         self._imu_fresh = True
         self._record_constants()
-        # The scalars that change pass to pass come in two runs, each one pack: thrust_body[2] and
-        # reset_integral; tpa, i_active, airmode_active, saturated and mode.
+        # The scalars that change pass to pass are one run, one pack (_SCALARS): thrust_body[2] and
+        # reset_integral, then hoverfly_pid's header and timestamp (the flush fills that in), tpa,
+        # i_active, airmode_active, saturated and mode.
         floats = field_offsets("f")
+        if floats[1][0] - floats[0][0] != struct.calcsize(_SCALARS) - struct.calcsize("<f???B"):
+            return None  # a layout without the run (core/logframe.py): pack the frame
         self._at_thrust = floats[0][0]
-        self._at_tpa = floats[1][0]
+        self._pid_header = headers[len(headers) - 1]
         return buf
 
     def _record_constants(self):
@@ -534,9 +541,8 @@ class Logger:
             if self._every_pass:
                 self._use_fast_update(True)
             i_active = f.i_active
-            struct.pack_into("<f?", rec, self._at_thrust, -sp.throttle_norm, not i_active)
-            struct.pack_into("<f???B", rec, self._at_tpa, c.tpa, i_active, f.airmode_active, mixer.saturated,
-                             sp.mode)
+            struct.pack_into(_SCALARS, rec, self._at_thrust, -sp.throttle_norm, not i_active, self._pid_header, 0,
+                             c.tpa, i_active, f.airmode_active, mixer.saturated, sp.mode)
             if (f.imu_us == now_us) is not self._imu_fresh:
                 self._imu_fresh = not self._imu_fresh
                 self._record_constants()
@@ -569,7 +575,7 @@ class Logger:
         same steps as update()'s record path with everything it reads bound once, as a closure
         (the every-pass path's attribute look-ups and branches cost more than the logging). The
         stages wrote the arrays into the record; the constant fields were set once; the time goes
-        in a column the batch's flush spreads over its frames; two packs store the changing
+        in a column the batch's flush spreads over its frames; one pack stores the changing
         scalars; the record is copied into the stage."""
         lg = self
         f = self.flight
@@ -579,7 +585,7 @@ class Logger:
         t_column = self._t_column
         pack_into = struct.pack_into
         at_thrust = self._at_thrust
-        at_tpa = self._at_tpa
+        pid_header = self._pid_header
         n = self._fast_n
         batch_n = self._batch_n
         slots = tuple(slice(k * n, k * n + n) for k in range(batch_n))  # each staged frame's bytes
@@ -590,8 +596,8 @@ class Logger:
             i = lg._staged
             t_column[i] = t
             i_active = f.i_active
-            pack_into("<f?", buf, at_thrust, -sp.throttle_norm, not i_active)
-            pack_into("<f???B", buf, at_tpa, c.tpa, i_active, f.airmode_active, mixer.saturated, sp.mode)
+            pack_into(_SCALARS, buf, at_thrust, -sp.throttle_norm, not i_active, pid_header, 0, c.tpa, i_active,
+                      f.airmode_active, mixer.saturated, sp.mode)
             if (f.imu_us == now_us) is not lg._imu_fresh:
                 lg._imu_fresh = not lg._imu_fresh
                 lg._record_constants()
@@ -631,7 +637,7 @@ class Logger:
         array signal goes in as one bytes object."""
         f = self.flight
         h0, h1, h2, h3, h4, h5 = self._headers
-        q, g, rs, mo, gr, ar, tq, pt = self._srcs
+        q, g, mo, gr, ar, rs, tq, pt = self._srcs
         raw = self._rawf
         dt_us = self._dt_us if f.imu_us == now_us else 0
         i_active = f.i_active
@@ -639,11 +645,11 @@ class Logger:
             self._fmt, self._stage, off,
             h0, t, raw(q),
             h1, t, t, raw(g),
-            h2, t, raw(rs), -sp.throttle_norm, 0 if i_active else 1,
-            h3, t, f.motor_count, raw(mo),
-            h4, t, raw(gr), dt_us, raw(ar), dt_us,
-            h5, t, raw(tq), raw(pt), c.tpa,
-            1 if i_active else 0, 1 if f.airmode_active else 0, 1 if mixer.saturated else 0, sp.mode,
+            h2, t, f.motor_count, raw(mo),
+            h3, t, raw(gr), dt_us, raw(ar), dt_us,
+            h4, t, raw(rs), -sp.throttle_norm, 0 if i_active else 1,
+            h5, t, c.tpa, 1 if i_active else 0, 1 if f.airmode_active else 0, 1 if mixer.saturated else 0,
+            sp.mode, raw(tq), raw(pt),
         )
 
     def flush(self):
