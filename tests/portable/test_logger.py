@@ -182,6 +182,15 @@ def test_a_pass_without_a_new_imu_sample_logs_integral_dt_zero():
     sc = _parse(sink.data)[2]["sensor_combined"]
     assert struct.unpack_from("<I", sc[-1], 20)[0] == 0
     assert struct.unpack_from("<I", sc[-2], 20)[0] == _PERIOD_US
+    # and the next pass with a sample logs its interval again (on the record path, from the
+    # every-pass update it went back to)
+    board_ref[0].imu = True
+    for k in (5, 6):
+        f.step(100000 + k * _PERIOD_US)
+    f.logger.flush()
+    sc = _parse(sink.data)[2]["sensor_combined"]
+    assert [struct.unpack_from("<I", p, 20)[0] for p in sc[-3:]] == [0, _PERIOD_US, _PERIOD_US]
+    assert f.logger._fast == (f.logger._rec is not None)
 
 
 def test_logging_rate_is_a_parameter():

@@ -197,6 +197,8 @@ class Flight:
                     self.events.record(now_us, EV_GYRO_CALIBRATED, 0)
             self.gyro_filter.update(s.gyro_raw_rad_s, self.calibration.bias_rad_s, s.gyro_rad_s)
             self.accel_filter.update(s.accel_raw_m_s2, s.accel_m_s2)
+        elif self.logger.active:  # no new sample: the log's integral_dt says so (Logger.update's full path)
+            self.logger.full_pass_next()
         # 2. estimator
         if self._use_external:
             if board.read_attitude(s.external_q):

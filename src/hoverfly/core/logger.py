@@ -308,6 +308,7 @@ class Logger:
         # The pass record path (_record_views): the record's bytes (None: the frame is packed), where
         # its run of changing scalars starts, and views of its constant fields.
         self._rec = None
+        self._fast = False  # _fast_update installed as update
         self._at_thrust = 0  # the run of changing scalars (_SCALARS) from thrust_body[2]
         self._pid_header = b""  # hoverfly_pid's header, inside that run
         self._nout = None  # actuator_outputs.noutputs
@@ -538,14 +539,14 @@ class Logger:
         self._t_column[i] = t
         rec = self._rec
         if rec is not None:
-            if self._every_pass:
-                self._use_fast_update(True)
             i_active = f.i_active
             struct.pack_into(_SCALARS, rec, self._at_thrust, -sp.throttle_norm, not i_active, self._pid_header, 0,
                              c.tpa, i_active, f.airmode_active, mixer.saturated, sp.mode)
             if (f.imu_us == now_us) is not self._imu_fresh:
                 self._imu_fresh = not self._imu_fresh
                 self._record_constants()
+            if self._every_pass and self._imu_fresh:
+                self._use_fast_update(True)
             n = self._fast_n
             self._stage[i * n : i * n + n] = rec
         else:
@@ -561,14 +562,26 @@ class Logger:
             self._log_param_changes(t)
 
     def _use_fast_update(self, on):
-        """Install (on) or remove the every-pass record-path update as this logger's `update`."""
+        """Install (on) or remove the every-pass record-path update as this logger's `update`. While
+        it is installed a parameter write removes it (Params.on_change), so the pass that brought
+        the change takes update() and logs it."""
+        params = self.flight.params
+        self._fast = on
         if on:
             self.update = self._fast_update()
+            params.on_change = self.full_pass_next
         else:
+            params.on_change = None
             try:
                 del self.update
             except (AttributeError, KeyError, TypeError):
                 pass
+
+    def full_pass_next(self):
+        """The next logged pass takes update()'s full path, which looks at the parameters and the
+        IMU sample (Params.on_change; Flight.step on a pass with no new sample)."""
+        if self._fast:
+            self._use_fast_update(False)
 
     def _fast_update(self):
         """`update` for the common case, logging every pass into the pass record (CPython): the
@@ -576,10 +589,12 @@ class Logger:
         (the every-pass path's attribute look-ups and branches cost more than the logging). The
         stages wrote the arrays into the record; the constant fields were set once; the time goes
         in a column the batch's flush spreads over its frames; one pack stores the changing
-        scalars; the record is copied into the stage."""
+        scalars; the record is copied into the stage. It does not look at the parameters or the
+        IMU sample: a parameter write or a pass without a new sample removes it (full_pass_next)
+        and update() does, until the sample is fresh again."""
         lg = self
         f = self.flight
-        sp, c, mixer, rc, params = self._ctx
+        sp, c, mixer, rc, _ = self._ctx
         stage = self._stage
         buf = self._rec
         t_column = self._t_column
@@ -598,9 +613,6 @@ class Logger:
             i_active = f.i_active
             pack_into(_SCALARS, buf, at_thrust, -sp.throttle_norm, not i_active, pid_header, 0, c.tpa, i_active,
                       f.airmode_active, mixer.saturated, sp.mode)
-            if (f.imu_us == now_us) is not lg._imu_fresh:
-                lg._imu_fresh = not lg._imu_fresh
-                lg._record_constants()
             stage[slots[i]] = buf
             i += 1
             lg._staged = i
@@ -609,8 +621,6 @@ class Logger:
                 lg._stage_rc(t)
             if i >= batch_n:
                 lg._batch_full(now_us, t)
-            if params.changed != lg._par_seen:
-                lg._log_param_changes(t)
 
         return update
 

@@ -238,12 +238,20 @@ class Params:
     def __init__(self):
         self.values = {}
         self.changed = 0  # bumped on every accepted write; stages re-read on change
+        # Called with no arguments after every accepted write (the flight log: it logs the change
+        # after the pass it came in, without looking at `changed` every pass).
+        self.on_change = None
         self.reset()
+
+    def _bump(self):
+        self.changed += 1
+        if self.on_change is not None:
+            self.on_change()
 
     def reset(self):
         for r in PARAMS:
             self.values[r[_NAME]] = r[_DEFAULT]
-        self.changed += 1
+        self._bump()
 
     def get(self, name):
         return self.values[name]
@@ -254,7 +262,7 @@ class Params:
         if err is not None:
             return err
         self.values[name] = value
-        self.changed += 1
+        self._bump()
         return None
 
     def update(self, pairs):
@@ -267,7 +275,7 @@ class Params:
             checked.append((name, v))
         for name, v in checked:
             self.values[name] = v
-        self.changed += 1
+        self._bump()
         return None
 
     def diff(self):
