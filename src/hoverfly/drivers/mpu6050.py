@@ -10,7 +10,9 @@ Descriptions" RM-MPU-6000A-00 rev 4.2 (section numbers below); sensitivities fro
 product specification PS-MPU-6000A-00 rev 3.4 §6.1/6.2.
 """
 
-from hoverfly.compat import const
+from array import array
+
+from hoverfly.compat import IS_MICROPYTHON, const
 from hoverfly.drivers.imu import (
     DEG_TO_RAD,
     GRAVITY_M_S2,
@@ -20,6 +22,17 @@ from hoverfly.drivers.imu import (
     STATUS_WRONG_ID,
     Imu,
 )
+
+# The burst decode of read()'s axis-map path: a viper twin on MicroPython (drivers/mpu6050_viper.py),
+# else the Python lines in read(); tested equal. The float scaling stays Python either way.
+_decode = None
+_viper_plan = None
+if IS_MICROPYTHON:
+    try:
+        from hoverfly.drivers.mpu6050_viper import decode as _decode
+        from hoverfly.drivers.mpu6050_viper import plan as _viper_plan
+    except (SyntaxError, ImportError, NameError, ValueError):
+        _decode = None
 
 ADDRESS = 0x68  # AD0 low (RM §4.32 WHO_AM_I note; seed 000)
 ADDRESS_ALT = 0x69  # AD0 high
@@ -71,6 +84,8 @@ class MPU6050(Imu):
         self.temp_raw = 0
         self.rate_hz = 0
         self._raw_gx = self._raw_gy = self._raw_gz = 0
+        self._raw = array("i", [0] * 13)  # the viper decode's output (mpu6050_viper.decode)
+        self._vplan = None
         self._plan_decode()
 
     def probe(self):
@@ -144,6 +159,7 @@ class MPU6050(Imu):
         here (construction, configure, a new bias)."""
         o = self._orientation
         self._direct = o.axis_map_only
+        self._vplan = None
         if not self._direct:
             return
         m = o.matrix()
@@ -156,6 +172,9 @@ class MPU6050(Imu):
             plan.append(1 if row[j] > 0 else -1)
             plan.append(bias[j])
         self._plan = tuple(plan)
+        if _decode is not None:
+            self._vplan = _viper_plan((plan[0], plan[3], plan[6]), (plan[1], plan[4], plan[7]),
+                                      (plan[2], plan[5], plan[8]))
 
     def read(self, gyro_rad_s, accel_m_s2):
         """One 14-byte burst from ACCEL_XOUT_H, decoded by hand, into FRD rad/s and m/s².
@@ -168,6 +187,23 @@ class MPU6050(Imu):
         except OSError:
             self.bus_errors += 1
             return False
+        vplan = self._vplan
+        if vplan is not None:
+            # The viper twin of the lines below: the same ints, into self._raw (mpu6050_viper.decode).
+            r = self._raw
+            _decode(buf, vplan, r)
+            self.temp_raw = r[6]
+            self._watch(r[3], r[4], r[5], r[0], r[1], r[2])
+            k = self._gyro_k16
+            gyro_rad_s[0] = r[7] * k
+            gyro_rad_s[1] = r[8] * k
+            gyro_rad_s[2] = r[9] * k
+            k = self._accel_k
+            accel_m_s2[0] = r[10] * k
+            accel_m_s2[1] = r[11] * k
+            accel_m_s2[2] = r[12] * k
+            self.samples += 1
+            return True
         if self._direct:
             # A pure axis map: each body axis is read from its chip axis's bytes and signed as an int,
             # then scaled: the numbers rotate_scaled gives, without its calls and selections.

@@ -24,8 +24,8 @@ The encoder is its exact inverse: it picks the tick that decodes back to the sam
 
 from array import array
 
-from hoverfly.compat import const, ticks_diff
-from hoverfly.protocols.crc import CRC8_DVB_S2_TABLE
+from hoverfly.compat import IS_MICROPYTHON, const, ticks_diff
+from hoverfly.protocols.crc import CRC8_DVB_S2_TABLE, crc8_dvb_s2
 from hoverfly.protocols.rxcodec import (
     SerialRxDecoder,
     check_unpack11,
@@ -66,6 +66,21 @@ TYPE_NAMES = {
 }
 
 _CRC = CRC8_DVB_S2_TABLE
+
+# The per-frame byte loops: viper twins on MicroPython (protocols/crsf_viper.py, ~10x faster on
+# the RC frame), the pure-Python twins everywhere else or if viper is missing; tested equal.
+_check_unpack11 = check_unpack11
+_unpack11 = unpack11
+_crc8 = crc8_dvb_s2
+if IS_MICROPYTHON:
+    try:
+        from hoverfly.protocols import crsf_viper as _viper
+
+        _check_unpack11 = _viper.check_unpack11
+        _unpack11 = _viper.unpack11
+        _crc8 = _viper.crc8_dvb_s2
+    except (SyntaxError, ImportError, NameError, ValueError):
+        pass
 
 
 def _sync_table():
@@ -157,7 +172,7 @@ class CrsfDecoder(SerialRxDecoder):
             n = size
         if (n == RC_FRAME_LEN and not self._pos and data[1] == 24 and data[2] == TYPE_RC_CHANNELS
                 and _SYNC_OK[data[0]]
-                and check_unpack11(data, 2, self.channels_raw, self.channels_us, US_OF_TICKS, _CRC)):
+                and _check_unpack11(data, 2, self.channels_raw, self.channels_us, US_OF_TICKS, _CRC)):
             self.bytes += RC_FRAME_LEN
             self.last_type = TYPE_RC_CHANNELS
             self.frames += 1
@@ -169,18 +184,14 @@ class CrsfDecoder(SerialRxDecoder):
 
     def _take(self, src, i, total):
         if total == RC_FRAME_LEN and src[i + 2] == TYPE_RC_CHANNELS:
-            if check_unpack11(src, i + 2, self.channels_raw, self.channels_us, US_OF_TICKS, _CRC):
+            if _check_unpack11(src, i + 2, self.channels_raw, self.channels_us, US_OF_TICKS, _CRC):
                 self.last_type = TYPE_RC_CHANNELS
                 self.frames += 1
                 return 1
             self.crc_errors += 1
             return -1
         end = i + total - 1
-        t = _CRC
-        crc = 0
-        for k in range(i + 2, end):
-            crc = t[crc ^ src[k]]
-        if crc != src[end]:
+        if _crc8(src, i + 2, end) != src[end]:
             self.crc_errors += 1
             return -1
         ftype = src[i + 2]
@@ -189,7 +200,7 @@ class CrsfDecoder(SerialRxDecoder):
             if total < RC_FRAME_LEN:
                 self.length_errors += 1
                 return 0
-            unpack11(src, i + 3, self.channels_raw, self.channels_us, US_OF_TICKS)
+            _unpack11(src, i + 3, self.channels_raw, self.channels_us, US_OF_TICKS)
             self.frames += 1
             return 1
         if ftype == TYPE_LINK_STATISTICS:
@@ -239,11 +250,7 @@ def _finish(out, length, sync=SYNC_FC):
     """Sync, length byte and CRC around out[2:length-1]; returns length."""
     out[0] = sync
     out[1] = length - 2
-    t = _CRC
-    crc = 0
-    for k in range(2, length - 1):
-        crc = t[crc ^ out[k]]
-    out[length - 1] = crc
+    out[length - 1] = _crc8(out, 2, length - 1)
     return length
 
 

@@ -1,0 +1,314 @@
+"""The viper accel twins give the same bytes and bits as their pure-Python twins.
+
+Portable: under MicroPython (tests/portable/mprun.py) each viper twin (protocols/crsf_viper.py,
+protocols/dshot_viper.py, drivers/mpu6050_viper.py) must be the one its module chose, and is run
+side by side with the Python twin on pseudo-random inputs (an LCG: the same sequence on every
+port) plus edge cases; every output must match. On CPython (pytest) there is no viper: the
+modules must have kept the Python twins, and those must still decode and encode.
+"""
+
+import math
+from array import array
+
+from hoverfly.compat import IS_MICROPYTHON
+from hoverfly.drivers import mpu6050
+from hoverfly.drivers.orientation import CW0, CW90_FLIP, CW180, CW270_FLIP, Orientation
+from hoverfly.protocols import crc, crsf, dshot, rxcodec
+
+if IS_MICROPYTHON:
+    from hoverfly.drivers import mpu6050_viper
+    from hoverfly.protocols import crsf_viper, dshot_viper
+else:
+    mpu6050_viper = crsf_viper = dshot_viper = None
+
+
+class Lcg:
+    """Deterministic integers (the constants of tests/portable/fastpathkit.py's Rand)."""
+
+    def __init__(self, seed):
+        self.s = seed
+
+    def below(self, n):
+        self.s = (self.s * 1103515245 + 12345) & 0x7FFFFFFF
+        return (self.s >> 8) % n
+
+    def fill(self, buf, start, end):
+        for k in range(start, end):
+            buf[k] = self.below(256)
+
+
+def _channels(fill):
+    return array("H", [fill] * 16)
+
+
+# ---------------------------------------------------------------------------------------- CRSF
+
+def _rc_frame(raw, at=0, size=26):
+    """A valid CRSF RC frame from 16 wire values, placed at `at` in a buffer of `size` bytes."""
+    buf = bytearray(size)
+    frame = crsf.encode_rc_frame_raw(raw)
+    for k in range(26):
+        buf[at + k] = frame[k]
+    return buf
+
+
+def _check_both(buf, p):
+    """Both check_unpack11 twins on buf at p, from the same pre-filled arrays; asserts they agree."""
+    ra, ua = _channels(0xAAAA), _channels(0x5555)
+    rb, ub = _channels(0xAAAA), _channels(0x5555)
+    got_py = rxcodec._check_unpack11_indexed(buf, p, ra, ua, crsf.US_OF_TICKS, crc.CRC8_DVB_S2_TABLE)
+    got_v = crsf_viper.check_unpack11(buf, p, rb, ub, crsf.US_OF_TICKS, crc.CRC8_DVB_S2_TABLE)
+    assert got_py == got_v, (bytes(buf), p)
+    assert list(ra) == list(rb) and list(ua) == list(ub), (bytes(buf), p, list(ra), list(rb))
+    return got_py
+
+
+def test_micropython_picks_the_viper_twins_and_cpython_the_python_ones():
+    if IS_MICROPYTHON:
+        assert crsf._check_unpack11 is crsf_viper.check_unpack11
+        assert crsf._unpack11 is crsf_viper.unpack11
+        assert crsf._crc8 is crsf_viper.crc8_dvb_s2
+        assert dshot._encode_armed is dshot_viper.encode_armed
+        assert mpu6050._decode is mpu6050_viper.decode
+    else:
+        assert crsf._check_unpack11 is rxcodec.check_unpack11
+        assert crsf._unpack11 is rxcodec.unpack11
+        assert crsf._crc8 is crc.crc8_dvb_s2
+        assert dshot._encode_armed is None
+        assert mpu6050._decode is None
+
+
+def test_crsf_decoder_decodes_an_rc_frame_through_the_chosen_twin():
+    dec = crsf.CrsfDecoder()
+    us = [988, 2011, 1500, 1000, 2000, 1193, 1505, 1817, 1200, 1800, 988, 1500, 2011, 1500, 988, 1500]
+    assert dec.feed(crsf.encode_rc_frame(us)) == 1
+    assert list(dec.channels_us) == us
+    # the framer's path: garbage first, then the frame, then a link statistics frame
+    data = bytearray(b"\x01\x02") + crsf.encode_rc_frame(us[::-1]) + crsf.encode_link_statistics(rssi1_dbm=-70)
+    assert dec.feed(data) == 1
+    assert list(dec.channels_us) == us[::-1]
+    assert dec.rssi1_dbm == -70 and dec.link_stats_frames == 1 and dec.crc_errors == 0
+
+
+def test_crsf_check_unpack11_twins_agree_on_random_frames():
+    if not IS_MICROPYTHON:
+        return
+    rnd = Lcg(7)
+    good = bad = 0
+    for n in range(400):
+        at = rnd.below(8)
+        raw = array("H", [rnd.below(2048) for _ in range(16)])
+        buf = _rc_frame(raw, at, 26 + 8)
+        kind = n % 4
+        if kind == 1:  # one flipped bit anywhere in type, channels or CRC: a CRC error
+            k = at + 2 + rnd.below(24)
+            buf[k] ^= 1 << rnd.below(8)
+        elif kind == 2:  # random bytes: almost always a CRC error, now and then a pass
+            rnd.fill(buf, at + 2, at + 26)
+        if _check_both(buf, at + 2):
+            good += 1
+        else:
+            bad += 1
+    assert good >= 200 and bad >= 150, (good, bad)
+
+
+def test_crsf_check_unpack11_twins_agree_on_edge_frames():
+    if not IS_MICROPYTHON:
+        return
+    for v in (0, 2047, 172, 992, 1811):
+        assert _check_both(_rc_frame(array("H", [v] * 16)), 2) == 1
+    alt = array("H", [0, 2047] * 8)
+    assert _check_both(_rc_frame(alt), 2) == 1
+    assert _check_both(_rc_frame(array("H", [2047, 0] * 8)), 2) == 1
+    assert _check_both(_rc_frame(array("H", [1 << (c % 11) for c in range(16)])), 2) == 1
+    zeros = bytearray(26)  # type 0, channels 0, CRC 0: CRC-8 of 23 zero bytes is 0, so it passes
+    assert _check_both(zeros, 2) == 1
+    ones = bytearray(b"\xff" * 26)
+    _check_both(ones, 2)
+    ones[25] = crc.crc8_dvb_s2(ones, 2, 25)  # the same bytes with their right CRC
+    assert _check_both(ones, 2) == 1
+
+
+def test_crsf_unpack11_and_crc8_twins_agree():
+    if not IS_MICROPYTHON:
+        return
+    rnd = Lcg(11)
+    buf = bytearray(40)
+    for n in range(300):
+        if n == 0:
+            fill = 0
+        elif n == 1:
+            fill = 0xFF
+        else:
+            fill = -1
+        for k in range(40):
+            buf[k] = fill if fill >= 0 else rnd.below(256)
+        p = rnd.below(18)
+        ra, ua, rb, ub = _channels(1), _channels(2), _channels(1), _channels(2)
+        rxcodec._unpack11_indexed(buf, p, ra, ua, crsf.US_OF_TICKS)
+        crsf_viper.unpack11(buf, p, rb, ub, crsf.US_OF_TICKS)
+        assert list(ra) == list(rb) and list(ua) == list(ub), (bytes(buf), p)
+        start = rnd.below(40)
+        end = start + rnd.below(41 - start)
+        assert crsf_viper.crc8_dvb_s2(buf, start, end) == crc.crc8_dvb_s2(buf, start, end), (bytes(buf), start, end)
+    assert crsf_viper.crc8_dvb_s2(b"123456789", 0, 9) == 0xBC  # the CRC-8/DVB-S2 check value
+
+
+# --------------------------------------------------------------------------------------- DShot
+
+def _encode_both(enc, motor_norm):
+    """encode_motors with the chosen twin, then with the Python loop; asserts the words, the
+    return value and the clamp count agree. Returns the words."""
+    n = enc.motor_count
+    wa = array("H", [0xBEEF] * 8)
+    wb = array("H", [0xBEEF] * 8)
+    enc.clamped = 0
+    ra = enc.encode_motors(motor_norm, True, wa)
+    ca = enc.clamped
+    saved = dshot._encode_armed
+    dshot._encode_armed = None
+    try:
+        enc.clamped = 0
+        rb = enc.encode_motors(motor_norm, True, wb)
+        cb = enc.clamped
+    finally:
+        dshot._encode_armed = saved
+    assert list(wa) == list(wb), (list(motor_norm)[:n], list(wa), list(wb))
+    assert ra == rb and ca == cb, (list(motor_norm)[:n], ra, rb, ca, cb)
+    return wa
+
+
+def test_dshot_encode_twins_agree_on_random_commands():
+    rnd = Lcg(3)
+    for n in range(600):
+        count = 1 + rnd.below(8)
+        enc = dshot.DshotEncoder(count, bidir=rnd.below(2), idle_pct=rnd.below(4) * 2.75,
+                                 stop_at_zero=rnd.below(2))
+        enc.telemetry_motor = rnd.below(count + 2) - 1  # -1 (none) .. count (none)
+        m = array("f", [0.0] * 8)
+        for i in range(count):
+            m[i] = (rnd.below(14001) - 2000) / 10000.0  # -0.2 .. 1.2
+        _encode_both(enc, m)
+        if not IS_MICROPYTHON and n == 20:
+            break  # CPython: the Python loop against itself; a few cases prove the plumbing
+
+
+def test_dshot_encode_twins_agree_on_edge_commands():
+    nan = float("nan")
+    inf = float("inf")
+    # values 0, 48, 2047 and their neighbours 49 and 2046 (idle 0: 1/1999 and 1998/1999), NaN, infinities
+    edges = [0.0, -0.0, 1.0, 1e-9, 1.0 - 1e-7, -1e-9, 1.0000001, nan, inf, -inf, 0.5, 2.0 ** -16,
+             1.0 / 1999, 1998.0 / 1999, 1.0 - 2.0 ** -12, 2.0 ** -30]
+    for bidir in (False, True):
+        for stop in (False, True):
+            for idle in (0.0, 5.5, 100.0):
+                for tm in (-1, 0, 3):
+                    enc = dshot.DshotEncoder(4, bidir, idle, stop)
+                    enc.telemetry_motor = tm
+                    for k in range(0, len(edges), 4):
+                        _encode_both(enc, array("f", edges[k:k + 4]))
+                    _encode_both(enc, [0.25, nan, 1.5, -0.5])  # a list works as well as an array
+
+
+def test_dshot_encode_gives_stop_min_and_max_values():
+    enc = dshot.DshotEncoder(4, False, 0.0, True)
+    enc.telemetry_motor = 1
+    w = _encode_both(enc, array("f", [0.0, 2.0 ** -20, 1.0, 7.0]))
+    assert [dshot.frame_value(x) for x in w[:4]] == [0, 48, 2047, 2047]
+    assert [dshot.frame_telemetry(x) for x in w[:4]] == [0, 1, 0, 0]
+    assert dshot.frame_crc_ok(w[0]) and dshot.frame_crc_ok(w[1]) and dshot.frame_crc_ok(w[3])
+    assert enc.clamped == 1  # the 7.0
+    enc = dshot.DshotEncoder(4, True, 0.0, True)
+    w = _encode_both(enc, array("f", [0.0, 0.0, 1.0, 0.0]))
+    assert dshot.frame_crc_ok(w[2], True) and not dshot.frame_crc_ok(w[2], False)
+    assert w[0] == dshot.dshot_frame(0, 0, True)
+
+
+# ------------------------------------------------------------------------------------ MPU-6050
+
+class _BurstBus:
+    def __init__(self):
+        self.burst = bytearray(14)
+
+    def readfrom_mem_into(self, address, register, buf):
+        for k in range(len(buf)):
+            buf[k] = self.burst[k]
+
+
+def _read_both(drv, bus, burst):
+    """read() with the chosen twin, then with the Python lines; asserts they agree bit for bit."""
+    for k in range(14):
+        bus.burst[k] = burst[k]
+    ga, aa = array("f", [9.0] * 3), array("f", [9.0] * 3)
+    gb, ab = array("f", [9.0] * 3), array("f", [9.0] * 3)
+    assert drv.read(ga, aa)
+    state_a = (drv.temp_raw, drv.saturated)
+    vplan = drv._vplan
+    drv._vplan = None
+    try:
+        assert drv.read(gb, ab)
+    finally:
+        drv._vplan = vplan
+    assert list(ga) == list(gb) and list(aa) == list(ab), (bytes(burst), list(ga), list(gb), list(aa), list(ab))
+    assert state_a == (drv.temp_raw, drv.saturated), (bytes(burst), state_a)
+    return ga, aa
+
+
+def _driver(mount, bias):
+    bus = _BurstBus()
+    drv = mpu6050.MPU6050(bus, Orientation(mount), delay_us=lambda us: None)
+    drv._gyro_k16 = math.pi / 180.0 / 16.4 / 16.0  # configure()'s 2000 dps and 16 g scales
+    drv._accel_k = 9.80665 / 2048.0
+    drv.set_gyro_bias16(bias[0], bias[1], bias[2])
+    if IS_MICROPYTHON:
+        assert drv._vplan is not None
+    else:
+        assert drv._vplan is None
+    return bus, drv
+
+
+def test_mpu6050_decode_twins_agree_on_random_and_edge_bursts():
+    rnd = Lcg(5)
+    edges = (bytes(14), b"\xff" * 14, b"\x80\x00" * 7, b"\x7f\xff" * 7, b"\x80\x01" * 7, b"\x00\x01" * 7)
+    cases = 0
+    for mount in (CW0, CW180, CW90_FLIP, CW270_FLIP):
+        for bias in ((0, 0, 0), (-1, 1, -524287), (524287, -524287, 12345)):
+            bus, drv = _driver(mount, bias)
+            for burst in edges:
+                _read_both(drv, bus, burst)
+                cases += 1
+            if not IS_MICROPYTHON:
+                continue
+            burst = bytearray(14)
+            for _ in range(60):
+                rnd.fill(burst, 0, 14)
+                _read_both(drv, bus, burst)
+                cases += 1
+    assert cases >= 72
+
+
+def test_mpu6050_decode_signs_and_scales_negative_extremes():
+    bus, drv = _driver(CW0, (16, 0, 0))
+    # accel x -32768, y 32767, z -1; temp -32768; gyro x -32768, y 1, z 32767 (chip axes)
+    g, a = _read_both(drv, bus, b"\x80\x00\x7f\xff\xff\xff\x80\x00\x80\x00\x00\x01\x7f\xff")
+    k = drv._gyro_k16
+    assert drv.temp_raw == -32768
+    assert drv.saturated
+    # CW0: FRD = (x, -y, -z) of the chip
+    assert a[0] == array("f", [-32768 * drv._accel_k])[0] and a[1] == array("f", [-32767 * drv._accel_k])[0]
+    assert a[2] == array("f", [1 * drv._accel_k])[0]
+    assert g[0] == array("f", [(-32768 * 16 - 16) * k])[0] and g[1] == array("f", [-16 * k])[0]
+    assert g[2] == array("f", [-32767 * 16 * k])[0]
+
+
+def test_mpu6050_viper_plan_refuses_a_bias_it_cannot_hold():
+    if not IS_MICROPYTHON:
+        return
+    assert mpu6050_viper.plan((0, 2, 4), (1, -1, -1), (0, 0, 0)) is not None
+    assert mpu6050_viper.plan((0, 2, 4), (1, -1, -1), (1 << 20, 0, 0)) is None
+    assert mpu6050_viper.plan((0, 2, 4), (1, -1, -1), (0, -(1 << 20), 0)) is None
+    assert mpu6050_viper.plan((0, 2, 4), (1, -1, -1), (0, 0, 0.5)) is None
+    bus, drv = _driver(CW0, (0, 0, 0))
+    drv.set_gyro_bias16(1 << 21, 0, 0)  # outside the plan: read() keeps the Python lines
+    assert drv._vplan is None
+    assert drv.read(array("f", [0.0] * 3), array("f", [0.0] * 3))
