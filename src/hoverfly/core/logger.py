@@ -325,8 +325,8 @@ class Logger:
         self._t_column = array("Q", bytes(8 * self._batch))  # the staged frames' times
         self._t_views = ()  # each fast timestamp field of the staged frames as a 'Q' view
         self._staged = 0  # staged fast frames
-        self._rc_off = 0  # staged input_rc bytes
-        self._staged_rc = 0  # staged input_rc samples
+        self._rc_off = 0  # staged input_rc bytes (_rc_n a sample)
+        self._rc_ch = None  # the signals' rc_channels_us (bound at _begin)
         self._imu_fresh = True  # the record's integral_dt fields hold _dt_us (else 0: no new sample)
         self._rc_header = b"\0" * 5
         self._ids = {}
@@ -396,7 +396,6 @@ class Logger:
         self.sink = sink
         self._staged = 0
         self._rc_off = 0
-        self._staged_rc = 0
         self._sink_free = getattr(sink, "free", None)
         self.writer = None
         self._from_start = not self._started
@@ -455,6 +454,7 @@ class Logger:
         self._rec = self._record_views(getattr(sig, "record", None), headers)
         self._rawf = _raw if isinstance(sig.gyro_rad_s, array) else _raw_view
         ch = sig.rc_channels_us
+        self._rc_ch = ch
         self._rc_whole = len(ch) == _RC_CHANNELS and len(bytes(ch)) == 2 * _RC_CHANNELS
         # Log time is µs since Flight.start when the log was opened before it (from boot), else
         # it starts at 0 here (a tick difference over a long flight could wrap).
@@ -680,14 +680,13 @@ class Logger:
             last = (frames - 1) * step + 1
             for v in self._t_views:
                 v[0:last:step] = col
-        rc = self._staged_rc
+        rc = self._rc_off // self._rc_n
         if rc:
             m = self._rc_off
             self._stage[n : n + m] = self._rc_stage[:m]
             n += m
         self._staged = 0
         self._rc_off = 0
-        self._staged_rc = 0
         if self._write(self.sink, self._stage_mv[:n], self._t_column[0]):
             self.frames += frames
             self.rc_frames += rc
@@ -719,34 +718,37 @@ class Logger:
 
     def _stage_rc(self, t):
         """input_rc for the new receiver frame, staged until this batch's flush."""
-        f = self.flight
-        ch = f.signals.rc_channels_us
         rec = self._receiver
         if rec is not None:
             lq = rec.link_quality_pct
-            lq = 0 if lq < 0 else (100 if lq > 100 else lq)
-            fs = 1 if rec.rx_failsafe else 0
+            if lq < 0:
+                lq = 0
+            elif lq > 100:
+                lq = 100
+            fs = rec.rx_failsafe
             total = rec.frames & 0xFFFF
             errors = rec.errors & 0xFFFF
             rssi_dbm = rec.rssi_dbm
         else:
+            f = self.flight
             lq = 100 if f.rx_ok else 0
-            fs = 0
+            fs = False
             total = f.rc.frames & 0xFFFF
             errors = 0
             rssi_dbm = 0
         off = self._rc_off
+        ch = self._rc_ch
+        lost = not self.flight.rx_ok
         if self._rc_whole:
             struct.pack_into(_RC_PACK, self._rc_stage, off, self._rc_header, t, t, lq, errors, total, _raw(ch),
-                             _RC_CHANNELS, fs, 0 if f.rx_ok else 1, 0, lq, rssi_dbm)
+                             _RC_CHANNELS, fs, lost, 0, lq, rssi_dbm)
         else:  # another board's channel source: pad or cut to PX4's 18
             v = [0] * _RC_CHANNELS
             for i in range(len(ch) if len(ch) < _RC_CHANNELS else _RC_CHANNELS):
                 v[i] = ch[i]
             struct.pack_into(_RC_PACK_VALUES, self._rc_stage, off, self._rc_header, t, t, lq, errors, total, *v,
-                             len(ch), fs, 0 if f.rx_ok else 1, 0, lq, rssi_dbm)
+                             len(ch), fs, lost, 0, lq, rssi_dbm)
         self._rc_off = off + self._rc_n
-        self._staged_rc += 1
 
     def _log_events(self, now_us, t):
         self._flush()
