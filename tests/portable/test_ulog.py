@@ -101,6 +101,18 @@ def test_subscription_and_data_vectors_from_the_reference():
     )
 
 
+def test_a_sample_the_caller_clamped_is_written_the_same_without_the_range_checks():
+    w, sink = _writer()
+    w.add_format("rate", RATE_FIELDS)
+    msg_id = w.subscribe("rate")
+    assert w.write_data(msg_id, 2000, (0.5, -0.25, 1.0, 1))
+    checked = sink.chunks[-1]
+    assert w.write_data(msg_id, 2000, (0.5, -0.25, 1.0, 1), True)
+    assert sink.chunks[-1] == checked
+    assert not w.write_data(msg_id, 2000, (0.5, -0.25, 1.0, 300))  # uint8 out of range: refused
+    assert w.refused == 1
+
+
 def test_second_instance_gets_multi_id_1_and_the_next_msg_id():
     w, sink = _writer()
     w.add_format("rate", RATE_FIELDS)

@@ -793,19 +793,20 @@ class Logger:
         elif not armed:
             self._armed_t64 = 0
         mah = getattr(s, "mah_drawn", 0.0)
-        w.write_data(ids["battery_status"], t, (s.battery_v, s.current_a, mah, -1.0, s.battery_v > 0.5))
+        # Every integer below is clamped to its field's type here (in_range: the writer skips its checks).
+        w.write_data(ids["battery_status"], t, (s.battery_v, s.current_a, mah, -1.0, s.battery_v > 0.5), True)
         mode = f.signals.setpoint.mode
         fs_state = f.failsafe.state
         w.write_data(ids["vehicle_status"], t, (
             self._armed_t64, _ARMING_ARMED if armed else _ARMING_STANDBY,
             _NAV_STATES[mode] if 0 <= mode < 3 else 0, fs_state != 0, not f.rx_ok,
-            _clamp_int(mode, 0, 255), _clamp_int(fs_state, 0, 255), f.imu_ok, f.calibration.calibrated))
+            _clamp_int(mode, 0, 255), _clamp_int(fs_state, 0, 255), f.imu_ok, f.calibration.calibrated), True)
         sc = f.scheduler
         w.write_data(ids["hoverfly_loop"], t, (
             _clamp_int(sc.passes, 0, _U32_MAX), _clamp_int(sc.cycle_us, 0, _U32_MAX),
             _clamp_int(sc.cycle_max_us, 0, _U32_MAX), _clamp_int(sc.jitter_max_us, 0, _U32_MAX),
             _clamp_int(sc.overruns, 0, _U32_MAX), _clamp_int(self.frames, 0, _U32_MAX),
-            _clamp_int(self.dropped, 0, _U32_MAX)))
+            _clamp_int(self.dropped, 0, _U32_MAX)), True)
         rec = getattr(f, "receiver", None)
         if rec is not None:
             link = (_clamp_int(getattr(rec, "frames", 0), 0, _U32_MAX),
@@ -815,7 +816,7 @@ class Logger:
                     float(getattr(rec, "rssi_dbm", 0.0)), bool(getattr(rec, "rx_failsafe", False)), f.rx_ok)
         else:
             link = (_clamp_int(f.rc.frames, 0, _U32_MAX), 0, 0.0, 100 if f.rx_ok else 0, 0.0, False, f.rx_ok)
-        w.write_data(ids["hoverfly_link"], t, link)
+        w.write_data(ids["hoverfly_link"], t, link, True)
         w.maybe_sync(t)
 
 

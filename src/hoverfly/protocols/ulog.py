@@ -443,19 +443,20 @@ class UlogWriter:
         self._emit(_message(0x41, payload))
         return msg_id
 
-    def write_data(self, msg_id, timestamp_us, values):
+    def write_data(self, msg_id, timestamp_us, values, in_range=False):
         """One sample `D`: values in field order (arrays flattened, top-level timestamp apart).
 
         Returns True if the sink took it. Refuses (and counts) an unknown msg_id, a wrong
         number of values, an integer out of its type's range; clamps a timestamp that
-        goes backwards to the topic's last one.
+        goes backwards to the topic's last one. `in_range`: the caller has clamped every integer
+        to its type (the flight logger's slow topics), so the per-field checks are skipped.
         """
         try:
             if msg_id < 0 or msg_id >= len(self._bufs) or len(values) != self._nvalues[msg_id]:
                 self.refused += 1
                 return False
             checks = self._checks[msg_id]
-            if checks is not None:
+            if checks is not None and not in_range:
                 # MicroPython's struct wraps out-of-range integers silently; CPython raises.
                 for i, lo, hi in checks:
                     v = values[i]
