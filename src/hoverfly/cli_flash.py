@@ -19,7 +19,7 @@ from hoverfly.errors import UserError
 
 PACKAGE = pathlib.Path(__file__).resolve().parent
 # What goes onto the device: the portable code and the rp2 board, nothing host-side.
-BUNDLE_DIRS = ("core", "protocols", "drivers", "boards/rp2")
+BUNDLE_DIRS = ("core", "protocols", "drivers", "accel", "boards/rp2")
 BUNDLE_FILES = ("__init__.py", "compat.py", "boards/__init__.py", "boards/bridge_fw.py")
 ARCH = {"rp2040": "armv6m", "rp2350": "armv7m", "rp2350-riscv": "rv32imc"}
 MAIN_PY = "from hoverfly.boards.rp2.main import main\nmain()\n"

@@ -1,7 +1,7 @@
 """The viper accel twins give the same bytes and bits as their pure-Python twins.
 
-Portable: under MicroPython (tests/portable/mprun.py) each viper twin (protocols/crsf_viper.py,
-protocols/dshot_viper.py, drivers/mpu6050_viper.py) must be the one its module chose, and is run
+Portable: under MicroPython (tests/portable/mprun.py) each viper twin (accel/crsf.py,
+accel/dshot.py, accel/mpu6050.py) must be the one its module chose, and is run
 side by side with the Python twin on pseudo-random inputs (an LCG: the same sequence on every
 port) plus edge cases; every output must match. On CPython (pytest) there is no viper: the
 modules must have kept the Python twins, and those must still decode and encode.
@@ -16,8 +16,9 @@ from hoverfly.drivers.orientation import CW0, CW90_FLIP, CW180, CW270_FLIP, Orie
 from hoverfly.protocols import crc, crsf, dshot, rxcodec
 
 if IS_MICROPYTHON:
-    from hoverfly.drivers import mpu6050_viper
-    from hoverfly.protocols import crsf_viper, dshot_viper
+    from hoverfly.accel import crsf as crsf_viper
+    from hoverfly.accel import dshot as dshot_viper
+    from hoverfly.accel import mpu6050 as mpu6050_viper
 else:
     mpu6050_viper = crsf_viper = dshot_viper = None
 

@@ -23,14 +23,14 @@ from hoverfly.drivers.imu import (
     Imu,
 )
 
-# The burst decode of read()'s axis-map path: a viper twin on MicroPython (drivers/mpu6050_viper.py),
+# The burst decode of read()'s axis-map path: a viper twin on MicroPython (accel/mpu6050.py),
 # else the Python lines in read(); tested equal. The float scaling stays Python either way.
 _decode = None
 _viper_plan = None
 if IS_MICROPYTHON:
     try:
-        from hoverfly.drivers.mpu6050_viper import decode as _decode
-        from hoverfly.drivers.mpu6050_viper import plan as _viper_plan
+        from hoverfly.accel.mpu6050 import decode as _decode
+        from hoverfly.accel.mpu6050 import plan as _viper_plan
     except (SyntaxError, ImportError, NameError, ValueError):
         _decode = None
 
@@ -84,7 +84,7 @@ class MPU6050(Imu):
         self.temp_raw = 0
         self.rate_hz = 0
         self._raw_gx = self._raw_gy = self._raw_gz = 0
-        self._raw = array("i", [0] * 13)  # the viper decode's output (mpu6050_viper.decode)
+        self._raw = array("i", [0] * 13)  # the viper decode's output (accel/mpu6050.py decode)
         self._vplan = None
         self._plan_decode()
 
@@ -189,7 +189,7 @@ class MPU6050(Imu):
             return False
         vplan = self._vplan
         if vplan is not None:
-            # The viper twin of the lines below: the same ints, into self._raw (mpu6050_viper.decode).
+            # The viper twin of the lines below: the same ints, into self._raw (accel/mpu6050.py).
             r = self._raw
             _decode(buf, vplan, r)
             self.temp_raw = r[6]

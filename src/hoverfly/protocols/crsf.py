@@ -67,14 +67,14 @@ TYPE_NAMES = {
 
 _CRC = CRC8_DVB_S2_TABLE
 
-# The per-frame byte loops: viper twins on MicroPython (protocols/crsf_viper.py, ~10x faster on
+# The per-frame byte loops: viper twins on MicroPython (accel/crsf.py, ~10x faster on
 # the RC frame), the pure-Python twins everywhere else or if viper is missing; tested equal.
 _check_unpack11 = check_unpack11
 _unpack11 = unpack11
 _crc8 = crc8_dvb_s2
 if IS_MICROPYTHON:
     try:
-        from hoverfly.protocols import crsf_viper as _viper
+        from hoverfly.accel import crsf as _viper
 
         _check_unpack11 = _viper.check_unpack11
         _unpack11 = _viper.unpack11

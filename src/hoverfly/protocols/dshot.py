@@ -31,11 +31,11 @@ from array import array
 from hoverfly.compat import IS_MICROPYTHON, const, ticks_add, ticks_diff
 
 # The armed per-motor loop of DshotEncoder.encode_motors: a viper twin on MicroPython
-# (protocols/dshot_viper.py, ~10x faster), else the Python loop below; tested equal.
+# (accel/dshot.py, ~10x faster), else the Python loop below; tested equal.
 _encode_armed = None
 if IS_MICROPYTHON:
     try:
-        from hoverfly.protocols.dshot_viper import encode_armed as _encode_armed
+        from hoverfly.accel.dshot import encode_armed as _encode_armed
     except (SyntaxError, ImportError, NameError, ValueError):
         _encode_armed = None
 
