@@ -90,23 +90,14 @@ class _Board(Board):
 
 
 class _RingLog:
-    """FileLog's policy without a file (MicroPython): the logger's sink, a ring written out a quarter at
-    a time to a counter."""
+    """FileLog's policy without a file (MicroPython): a ring that writes itself out a quarter at a time,
+    to a counter."""
 
     def __init__(self, flight):
-        self.ring = RingSink(24 * 1024)
+        self.ring = RingSink(24 * 1024, self._write, 6 * 1024)
         self._threshold = self.ring.size // 4
         self.bytes_written = 0
-        flight.logger.open(self)
-
-    def write(self, data):
-        n = self.ring.write(data)
-        if self.ring.used >= self._threshold:
-            self.ring.drain(self._write)
-        return n
-
-    def free(self):
-        return self.ring.free()
+        flight.logger.open(self.ring)
 
     def _write(self, mv):
         self.bytes_written += len(mv)

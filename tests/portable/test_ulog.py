@@ -113,6 +113,20 @@ def test_a_sample_the_caller_clamped_is_written_the_same_without_the_range_check
     assert w.refused == 1
 
 
+def test_a_ring_with_a_spill_drains_itself_once_it_holds_spill_at_bytes():
+    out = []
+
+    def take(mv):
+        out.append(bytes(mv))
+
+    ring = RingSink(32, take, 8)
+    assert ring.write(b"abcde") == 5
+    assert out == [] and ring.used == 5  # below spill_at: it waits
+    assert ring.write(b"fghi") == 4
+    assert out == [b"abcdefghi"] and ring.used == 0
+    assert RingSink(32).write(b"x" * 20) == 20  # no spill: a board drains it in its slack
+
+
 def test_second_instance_gets_multi_id_1_and_the_next_msg_id():
     w, sink = _writer()
     w.add_format("rate", RATE_FIELDS)

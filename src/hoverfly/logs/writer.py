@@ -1,8 +1,8 @@
 """Host side of the flight log: a file fed from the logger's ring, for the simulator and Linux.
 
-`attach(run_or_flight, path)` opens `path`, becomes the flight's logger's sink and returns a
-`FileLog`. What the logger writes goes into a RingSink; a write that leaves the ring a quarter full
-writes the ring out to the file then and there, so nothing has to be called between passes (the
+`attach(run_or_flight, path)` opens `path`, gives the flight's logger a RingSink and returns a
+`FileLog`; a write that leaves the ring a quarter full writes the ring out to the file then and
+there (RingSink's spill), so nothing has to be called between passes (the
 logger writes once a batch, so the passes in between cost nothing here). `close()` at the end writes
 out the rest and closes the file. `SimRun(log_path=...)` (and so `hoverfly fly --log`) does exactly
 that; `hoverfly sim --log` and anything else that steps a Flight can use it the same way.
@@ -26,21 +26,12 @@ class FileLog:
             self.file = open(self.path, "wb")  # noqa: SIM115 - closed in close()
         except OSError as exc:
             raise UserError("--log %s: cannot write (%s)" % (self.path, exc.strerror or exc)) from None
-        self.ring = RingSink(ring_bytes)
+        # The logger's sink: a ring that writes itself out to the file once a quarter full.
+        self.ring = RingSink(ring_bytes, self._write, ring_bytes // 4)
         self._threshold = ring_bytes // 4
         self.bytes_written = 0
         self.closed = False
-        flight.logger.open(self)
-
-    # The logger's sink: the ring's write and free, and the ring out to the file once a quarter full.
-    def write(self, data):
-        n = self.ring.write(data)
-        if self.ring.used >= self._threshold:
-            self.ring.drain(self._write)
-        return n
-
-    def free(self):
-        return self.ring.free()
+        flight.logger.open(self.ring)
 
     def _write(self, mv):
         self.file.write(mv)
@@ -49,7 +40,7 @@ class FileLog:
 
     def drain(self, force=False):
         """Write the ring out to the file once it holds a quarter of its size (or always, with force).
-        write() does this on its own; this is for a caller that wants the file current now."""
+        The ring's writes do this on their own; this is for a caller that wants the file current now."""
         if force or self.ring.used >= self._threshold:
             self.ring.drain(self._write)
 

@@ -547,9 +547,11 @@ class RingSink:
     `write` takes a whole message or nothing (a partial message would corrupt the stream):
     when there is no room it returns 0 and counts dropped_bytes/dropped_messages, and each
     run of drops counts one dropout; the writer then emits an 'O' when room returns.
+    With `spill` (a drain write_fn) the write that leaves `spill_at` bytes or more in the ring
+    drains it there and then (a host writing to a file: nobody has to drain between passes).
     """
 
-    def __init__(self, size):
+    def __init__(self, size, spill=None, spill_at=0):
         self._buf = bytearray(size)
         self._mv = memoryview(self._buf)
         self.size = size
@@ -564,6 +566,8 @@ class RingSink:
         self.dropping = False
         self.high_water = 0
         self.write_errors = 0
+        self._spill = spill
+        self._spill_at = spill_at
 
     def free(self):
         return self.size - self.used
@@ -598,6 +602,8 @@ class RingSink:
         self.bytes_in += n
         if self.used > self.high_water:
             self.high_water = self.used
+        if self._spill is not None and self.used >= self._spill_at:
+            self.drain(self._spill)
         return n
 
     def drain(self, write_fn, max_bytes=-1):
