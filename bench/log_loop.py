@@ -1,7 +1,8 @@
 """Cost of flight logging at 1 kHz: the flight pass with and without the logger, and the log task alone.
 
 Run: `.venv/bin/python bench/log_loop.py` and
-`MICROPYPATH=src:.frozen .venv/bin/micropython -X heapsize=192k bench/log_loop.py`.
+`MICROPYPATH=src:.frozen .venv/bin/micropython -X heapsize=1m bench/log_loop.py` (the
+whole core imported from source needs more than a Pico's heap).
 Prints one JSON object: us_per_pass without and with logging (the fastest 20-pass batch of each;
 blackbox_rate_hz = loop_hz = 1000: every pass writes the six fast topics, input_rc on each
 receiver frame, the slow topics ten times a second). The log goes where `hoverfly fly --log`

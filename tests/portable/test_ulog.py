@@ -282,13 +282,29 @@ def test_maybe_sync_writes_about_once_a_second():
 def test_ring_sink_round_trips_across_the_wrap():
     ring = RingSink(64)
     out = bytearray()
+    sent = bytearray()
+    split = 0
     for i in range(40):
         msg = bytes([i]) * (1 + i % 23)
+        split += ring._head + len(msg) > ring.size
         assert ring.write(msg) == len(msg)
-        ring.drain(out.extend)
-        assert out[-len(msg) :] == msg
+        sent.extend(msg)
+        ring.drain(out.extend, ring.used - 1)  # one byte stays: the ring never empties, so it wraps
+    ring.drain(out.extend)
+    assert split > 5  # messages did straddle the end
     assert ring.dropped_bytes == 0 and ring.used == 0
+    assert bytes(out) == bytes(sent)
     assert ring.bytes_in == ring.bytes_out == len(out)
+
+
+def test_an_emptied_ring_starts_again_at_the_front():
+    ring = RingSink(16)
+    chunks = []
+    ring.write(b"0123456789")
+    ring.drain(chunks.append)
+    ring.write(b"abcdefghij")  # would straddle the end at 10; the ring is empty, so it goes at 0
+    ring.drain(lambda mv: chunks.append(bytes(mv)))
+    assert chunks[1:] == [b"abcdefghij"]  # one piece, not two
 
 
 def test_ring_sink_drain_honours_max_bytes_and_partial_writes():
@@ -333,7 +349,8 @@ def test_writer_through_a_ring_equals_direct_bytes():
         m = w.subscribe("rate")
         for i in range(50):
             w.write_data(m, i, (i * 0.5, -1.0, 2.0, i & 1))
-            ring.drain(out.extend)
+            ring.drain(out.extend, ring.used - 3)  # never empty: messages straddle the end
+    ring.drain(out.extend)
     assert bytes(out) == direct.all()
 
 

@@ -59,20 +59,20 @@ from hoverfly.core.params import PARAMS
 from hoverfly.protocols.ulog import UlogWriter
 
 _SLOW_HZ = 10  # battery, status, loop and link topics
-# A batch of staged frames goes to the sink at least 50 times a second (fewer frames a batch at
-# low logging rates); events and the slow topics are looked at when a batch goes (an event
+# A batch of staged frames goes to the sink at least 20 times a second on CPython, 50 on MicroPython
+# (fewer frames a batch at low logging rates); events and the slow topics are looked at when a batch goes (an event
 # carries its own time: it is back-dated to when it happened). Parameter changes are looked for
 # every logged pass: replay applies each after the pass it was logged with.
-_BATCH_HZ = 50
+_BATCH_HZ = 50 if IS_MICROPYTHON else 20
 _RC_CHANNELS = 18  # PX4 input_rc.values[18]
 _U32_MAX = 0xFFFFFFFF
 # The frames of several passes are staged in one buffer and handed to the sink in one write when
 # a batch is full: the sink's per-write cost (~2.4 µs into a RingSink on CPython) is paid once
 # per batch. The fast frames sit back to back at a fixed stride, the batch's input_rc samples go
-# after them at the flush. Up to 5 passes (about 2 KiB) on the Pico, where RAM is short; 20
-# (about 8 KiB) elsewhere. Anything else the log holds (slow topics, strings, parameter
+# after them at the flush. Up to 5 passes (about 2 KiB) on the Pico, where RAM is short; 50
+# (about 20 KiB) elsewhere. Anything else the log holds (slow topics, strings, parameter
 # changes, syncs) goes out after the staged frames.
-STAGE_FRAMES = 5 if IS_MICROPYTHON else 20
+STAGE_FRAMES = 5 if IS_MICROPYTHON else 50
 
 # PX4 message definitions (PX4-Autopilot msg/*.msg), trimmed to what hoverfly has; the
 # padding fields are left out (readers go by name). Every format starts with its timestamp.
@@ -309,6 +309,7 @@ class Logger:
         # its run of changing scalars starts, and views of its constant fields.
         self._rec = None
         self._fast = False  # _fast_update installed as update
+        self._fast_sync = None  # writes its time, staged count and last receiver frame back (_fast_update)
         self._at_thrust = 0  # the run of changing scalars (_SCALARS) from thrust_body[2]
         self._pid_header = b""  # hoverfly_pid's header, inside that run
         self._nout = None  # actuator_outputs.noutputs
@@ -393,6 +394,8 @@ class Logger:
 
     def open(self, sink):
         """Start a log into `sink` (anything with write(bytes)); definitions go out at the next pass."""
+        if self._fast:
+            self._use_fast_update(False)
         self.sink = sink
         self._staged = 0
         self._rc_off = 0
@@ -404,6 +407,8 @@ class Logger:
 
     def close(self):
         """End the log: the staged frames and a last sync; the sink's owner flushes and closes it."""
+        if self._fast:
+            self._use_fast_update(False)
         if self.writer is not None:
             self._check(None, self._t64)  # events since the last look
             self.flush()
@@ -545,8 +550,6 @@ class Logger:
             if (f.imu_us == now_us) is not self._imu_fresh:
                 self._imu_fresh = not self._imu_fresh
                 self._record_constants()
-            if self._every_pass and self._imu_fresh:
-                self._use_fast_update(True)
             n = self._fast_n
             self._stage[i * n : i * n + n] = rec
         else:
@@ -560,12 +563,16 @@ class Logger:
             self._batch_full(now_us, t)
         if params.changed != self._par_seen:
             self._log_param_changes(t)
+        if rec is not None and self._every_pass and self._imu_fresh and not self._fast:
+            self._use_fast_update(True)  # last: the closure starts from this pass's state
 
     def _use_fast_update(self, on):
         """Install (on) or remove the every-pass record-path update as this logger's `update`. While
         it is installed a parameter write removes it (Params.on_change), so the pass that brought
         the change takes update() and logs it."""
         params = self.flight.params
+        if self._fast:
+            self._fast_sync()
         self._fast = on
         if on:
             self.update = self._fast_update()
@@ -589,9 +596,12 @@ class Logger:
         (the every-pass path's attribute look-ups and branches cost more than the logging). The
         stages wrote the arrays into the record; the constant fields were set once; the time goes
         in a column the batch's flush spreads over its frames; one pack stores the changing
-        scalars; the record is copied into the stage. It does not look at the parameters or the
-        IMU sample: a parameter write or a pass without a new sample removes it (full_pass_next)
-        and update() does, until the sample is fresh again."""
+        scalars; the record is copied into the stage. The log time, the staged count and the last
+        receiver frame seen live in the closure while it is installed (cells cost less than the
+        logger's attributes); `_fast_sync` writes them back, and everything else that reads them
+        (flush, close, removing the closure) calls it first. It does not look at the parameters or
+        the IMU sample: a parameter write or a pass without a new sample removes it
+        (full_pass_next) and update() does, until the sample is fresh again."""
         lg = self
         f = self.flight
         sp, c, mixer, rc, _ = self._ctx
@@ -604,24 +614,34 @@ class Logger:
         n = self._fast_n
         batch_n = self._batch_n
         slots = tuple(slice(k * n, k * n + n) for k in range(batch_n))  # each staged frame's bytes
+        t = self._t64
+        i = self._staged
+        rc_seen = self._rc_seen
 
         def update(now_us):
-            t = lg._t64 + f.pass_dt_us
-            lg._t64 = t
-            i = lg._staged
+            nonlocal t, i, rc_seen
+            t += f.pass_dt_us
             t_column[i] = t
             i_active = f.i_active
             pack_into(_SCALARS, buf, at_thrust, -sp.throttle_norm, not i_active, pid_header, 0, c.tpa, i_active,
                       f.airmode_active, mixer.saturated, sp.mode)
             stage[slots[i]] = buf
             i += 1
-            lg._staged = i
-            if rc.frames != lg._rc_seen:
-                lg._rc_seen = rc.frames
+            if rc.frames != rc_seen:
+                rc_seen = rc.frames
                 lg._stage_rc(t)
             if i >= batch_n:
+                lg._t64 = t
+                lg._staged = i
                 lg._batch_full(now_us, t)
+                i = lg._staged
 
+        def sync():
+            lg._t64 = t
+            lg._staged = i
+            lg._rc_seen = rc_seen
+
+        self._fast_sync = sync
         return update
 
     def _batch_full(self, now_us, t):
@@ -664,6 +684,8 @@ class Logger:
 
     def flush(self):
         """Hand the staged frames to the sink now (close() and every other log write do this first)."""
+        if self._fast:
+            self._fast_sync()
         if self._staged > 0 and self.sink is not None:
             self._flush()
 
@@ -719,12 +741,27 @@ class Logger:
     def _stage_rc(self, t):
         """input_rc for the new receiver frame, staged until this batch's flush."""
         rec = self._receiver
+        off = self._rc_off
+        if rec is None or not self._rc_whole:
+            self._stage_rc_any(off, t)
+            self._rc_off = off + self._rc_n
+            return
+        lq = rec.link_quality_pct
+        if lq > 100:
+            lq = 100
+        elif lq < 0:
+            lq = 0
+        struct.pack_into(_RC_PACK, self._rc_stage, off, self._rc_header, t, t, lq, rec.errors & 0xFFFF,
+                         rec.frames & 0xFFFF, _raw(self._rc_ch), _RC_CHANNELS, rec.rx_failsafe,
+                         not self.flight.rx_ok, 0, lq, rec.rssi_dbm)
+        self._rc_off = off + self._rc_n
+
+    def _stage_rc_any(self, off, t):
+        """_stage_rc without a receiver that reports its link (the flight's own counts), or from
+        another board's channel source (padded or cut to PX4's 18)."""
+        rec = self._receiver
         if rec is not None:
-            lq = rec.link_quality_pct
-            if lq < 0:
-                lq = 0
-            elif lq > 100:
-                lq = 100
+            lq = _clamp_int(rec.link_quality_pct, 0, 100)
             fs = rec.rx_failsafe
             total = rec.frames & 0xFFFF
             errors = rec.errors & 0xFFFF
@@ -736,19 +773,17 @@ class Logger:
             total = f.rc.frames & 0xFFFF
             errors = 0
             rssi_dbm = 0
-        off = self._rc_off
         ch = self._rc_ch
         lost = not self.flight.rx_ok
         if self._rc_whole:
             struct.pack_into(_RC_PACK, self._rc_stage, off, self._rc_header, t, t, lq, errors, total, _raw(ch),
                              _RC_CHANNELS, fs, lost, 0, lq, rssi_dbm)
-        else:  # another board's channel source: pad or cut to PX4's 18
+        else:
             v = [0] * _RC_CHANNELS
             for i in range(len(ch) if len(ch) < _RC_CHANNELS else _RC_CHANNELS):
                 v[i] = ch[i]
             struct.pack_into(_RC_PACK_VALUES, self._rc_stage, off, self._rc_header, t, t, lq, errors, total, *v,
                              len(ch), fs, lost, 0, lq, rssi_dbm)
-        self._rc_off = off + self._rc_n
 
     def _log_events(self, now_us, t):
         self._flush()

@@ -637,4 +637,9 @@ class RingSink:
             done += took
             if took < chunk:
                 break
+        if self.used == 0:
+            # Empty: start again at the front, so the writes keep landing in the same few
+            # kilobytes (cache-warm) instead of walking the whole ring.
+            self._head = 0
+            self._tail = 0
         return done
