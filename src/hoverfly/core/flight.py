@@ -5,6 +5,8 @@ due (receiver, arming, failsafe, battery, LED). Stages are built once; `configur
 reads the parameters into every stage (again whenever they change while disarmed).
 """
 
+from array import array
+
 from hoverfly.compat import ticks_diff
 from hoverfly.core.arming import (
     AUTOPILOT,
@@ -115,6 +117,14 @@ class Flight:
         self._mode = -1
         self._use_external = False
         self._first_imu = True
+        # The estimator every _att_every passes (att_rate_hz), fed the gyro averaged since its last update.
+        self._att_every = 1
+        self._att_n = 0
+        self._att_gx = 0.0
+        self._att_gy = 0.0
+        self._att_gz = 0.0
+        self._att_dt = 0.0
+        self._att_gyro = array("f", [0.0, 0.0, 0.0])
         self.overloaded = False
         self.pass_us = 0
         self.pass_dt_us = 0  # ticks from the previous pass to this one (the logger's clock)
@@ -137,6 +147,10 @@ class Flight:
         self.accel_filter.configure(p, hz)
         self.mahony.configure(p)
         self._use_external = p.get("estimator") == "external"
+        every = hz // p.get("att_rate_hz")
+        self._att_every = every if every > 1 else 1
+        self._att_n = 0
+        self._att_gx = self._att_gy = self._att_gz = self._att_dt = 0.0
         self.rc.configure(p, hz)
         self.receiver.configure(p)
         self.controller.configure(p, hz)
@@ -206,8 +220,25 @@ class Flight:
         elif self._first_imu:
             self.mahony.level_from_accel(s.accel_raw_m_s2, s.attitude)
             self._first_imu = False
-        else:
+        elif self._att_every == 1:
             self.mahony.update(s.gyro_rad_s, s.accel_m_s2, dt_s, self.arming.armed, s.attitude)
+        else:  # below the loop rate (Betaflight runs its attitude at 100 Hz): the gyro averaged since the last update
+            g = s.gyro_rad_s
+            self._att_gx += g[0]
+            self._att_gy += g[1]
+            self._att_gz += g[2]
+            self._att_dt += dt_s
+            n = self._att_n + 1
+            if n < self._att_every:
+                self._att_n = n
+            else:
+                a = self._att_gyro
+                a[0] = self._att_gx / n
+                a[1] = self._att_gy / n
+                a[2] = self._att_gz / n
+                self.mahony.update(a, s.accel_m_s2, self._att_dt, self.arming.armed, s.attitude)
+                self._att_n = 0
+                self._att_gx = self._att_gy = self._att_gz = self._att_dt = 0.0
         # 3. commander: the pilot's sticks, or the failsafe's
         sp = s.setpoint
         self.rc.update(sp)

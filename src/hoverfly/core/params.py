@@ -51,6 +51,7 @@ PARAMS = (
     ("estimator",     "mahony",    0,      0,    ESTIMATORS,    REBOOT, "attitude source: mahony filter or the IMU's own fusion"),
     ("imu_dcm_kp",         300,    0,   50000,   "1e-4/s",      LIVE,   "accelerometer correction gain (x10 while disarmed)"),
     ("imu_dcm_ki",           0,    0,   50000,   "1e-4/s2",     LIVE,   "gyro-bias integral gain, Betaflight scale"),
+    ("att_rate_hz",        250,   50,    8000,   "Hz",          LIVE,   "estimator rate, capped at loop_hz; the gyro is averaged between its updates"),
     ("small_angle",         25,    0,     180,   "deg",         LIVE,   "largest tilt that may arm"),
     # --- rate PID (Betaflight scales)
     ("p_roll",              45,    0,     250,   "",            LIVE,   "roll rate P"),
