@@ -117,13 +117,13 @@ class Flight:
         self._mode = -1
         self._use_external = False
         self._first_imu = True
-        # The estimator every _att_every passes (att_rate_hz), fed the gyro averaged since its last update.
+        # The estimator every _att_every passes (att_rate_hz), fed the gyro averaged since its last
+        # update: the passes counted, their gyro summed (a list: reading it back boxes nothing on
+        # MicroPython) and their ticks summed (an int: no float a pass).
         self._att_every = 1
         self._att_n = 0
-        self._att_gx = 0.0
-        self._att_gy = 0.0
-        self._att_gz = 0.0
-        self._att_dt = 0.0
+        self._att_sum = [0.0, 0.0, 0.0]
+        self._att_us = 0
         self._att_gyro = array("f", [0.0, 0.0, 0.0])
         self.overloaded = False
         self.pass_us = 0
@@ -149,8 +149,7 @@ class Flight:
         self._use_external = p.get("estimator") == "external"
         every = hz // p.get("att_rate_hz")
         self._att_every = every if every > 1 else 1
-        self._att_n = 0
-        self._att_gx = self._att_gy = self._att_gz = self._att_dt = 0.0
+        self._att_restart()
         self.rc.configure(p, hz)
         self.receiver.configure(p)
         self.controller.configure(p, hz)
@@ -176,6 +175,13 @@ class Flight:
         self._airmode_thr = p.get("airmode_thr_pct") * 0.01
         self._fs_switch_mode = FS_SWITCH_MODES.index(p.get("fs_switch_mode"))
         self._configured_at = p.changed
+
+    def _att_restart(self):
+        """The estimator's gyro average starts again (after an update, or a new att_rate_hz)."""
+        self._att_n = 0
+        acc = self._att_sum
+        acc[0] = acc[1] = acc[2] = 0.0
+        self._att_us = 0
 
     def start(self, now_us):
         """Boot: configure, start the clocks and the gyro calibration."""
@@ -224,21 +230,23 @@ class Flight:
             self.mahony.update(s.gyro_rad_s, s.accel_m_s2, dt_s, self.arming.armed, s.attitude)
         else:  # below the loop rate (Betaflight runs its attitude at 100 Hz): the gyro averaged since the last update
             g = s.gyro_rad_s
-            self._att_gx += g[0]
-            self._att_gy += g[1]
-            self._att_gz += g[2]
-            self._att_dt += dt_s
+            acc = self._att_sum
+            acc[0] += g[0]
+            acc[1] += g[1]
+            acc[2] += g[2]
+            self._att_us += dt_us
             n = self._att_n + 1
             if n < self._att_every:
                 self._att_n = n
             else:
                 a = self._att_gyro
-                a[0] = self._att_gx / n
-                a[1] = self._att_gy / n
-                a[2] = self._att_gz / n
-                self.mahony.update(a, s.accel_m_s2, self._att_dt, self.arming.armed, s.attitude)
-                self._att_n = 0
-                self._att_gx = self._att_gy = self._att_gz = self._att_dt = 0.0
+                a[0] = acc[0] / n
+                a[1] = acc[1] / n
+                a[2] = acc[2] / n
+                us = self._att_us
+                self.mahony.update(a, s.accel_m_s2, us * 1e-6 if us > 0 else n / self.loop_hz, self.arming.armed,
+                                   s.attitude)
+                self._att_restart()
         # 3. commander: the pilot's sticks, or the failsafe's
         sp = s.setpoint
         self.rc.update(sp)

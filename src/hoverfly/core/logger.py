@@ -563,7 +563,7 @@ class Logger:
             self._batch_full(now_us, t)
         if params.changed != self._par_seen:
             self._log_param_changes(t)
-        if rec is not None and self._every_pass and self._imu_fresh and not self._fast:
+        if rec is not None and self._every_pass and self._imu_fresh:
             self._use_fast_update(True)  # last: the closure starts from this pass's state
 
     def _use_fast_update(self, on):
