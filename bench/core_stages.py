@@ -17,7 +17,7 @@ are already counted in it. Per-call figures are the best (lowest) of three runs.
     python3 bench/core_stages.py
     MICROPYPATH=src .venv/bin/micropython -X heapsize=1m bench/core_stages.py
 
-(1 MB heap: the probes and more flights do not fit the 320 KB bench/core_loop.py runs in.)
+(1 MB heap: the probes and more flights do not fit the 384 KB bench/core_loop.py runs in.)
 """
 
 import sys
@@ -163,8 +163,11 @@ def install_stages(board, f):
     probe(f.mahony, "update", "mahony (math)", 5)
     probe(f.rc, "update", "rc.update", 1)
     probe(f, "command", "flight.command", 1)
-    probe(f.controller, "update", "controller (math)", 7)
-    probe(f.mixer, "update", "mixer", 4)
+    if f._fixed_on:  # pid_math: the controller and mixer as one fixed-point pass (MicroPython)
+        probe(f.fixed, "update", "fixed: controller + mixer", 5)
+    else:
+        probe(f.controller, "update", "controller (math)", 7)
+        probe(f.mixer, "update", "mixer", 4)
     probe(f.output, "update", "output.update", 3)
     probe(f.motor_test, "update", "motor_test", 5)
     probe(board, "write_motors", "write_motors", 2)

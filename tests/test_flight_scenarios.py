@@ -138,3 +138,24 @@ def test_the_estimator_below_the_loop_rate_tracks_a_flip_nearly_as_well_as_at_th
     assert not r["crashed"] and r["flips"][0]["end_tilt_deg"] <= 10.0
     assert full < 1.5, full
     assert quarter < 3.0, quarter
+
+
+@pytest.mark.parametrize("scenario", ("hover", "rate-steps", "angle-steps", "flip"))
+def test_the_fixed_point_rate_loop_flies_as_the_float_one_does(scenario):
+    # pid_math=fixed: the controller and mixer in integers (MicroPython's zero-allocation pass; here
+    # its Python twin). Its outputs differ from the float stages' by a few 2**-16 of the motor range:
+    # a pilot must not see it.
+    a = fly(scenario, "5inch", seed=7, overrides=(("pid_math", "float"),))
+    b = fly(scenario, "5inch", seed=7, overrides=(("pid_math", "fixed"),))
+    assert not b["crashed"]
+    assert abs(a["tilt_rms_deg"] - b["tilt_rms_deg"]) < 0.02, (a["tilt_rms_deg"], b["tilt_rms_deg"])
+    assert abs(a["altitude_m"]["final"] - b["altitude_m"]["final"]) < 0.05
+    assert len(a["steps"]) == len(b["steps"])
+    assert len(a["flips"]) == len(b["flips"])
+    for sa, sb in zip(a["steps"], b["steps"], strict=True):
+        assert abs(sa["overshoot_pct"] - sb["overshoot_pct"]) < 0.5, (sa, sb)
+        for key in ("rise_ms", "t90_ms", "settle_ms"):
+            if sa.get(key) is not None:
+                assert abs(sa[key] - sb[key]) <= 2.0, (key, sa, sb)
+    for fa, fb in zip(a["flips"], b["flips"], strict=True):
+        assert abs(fa["alt_loss_m"] - fb["alt_loss_m"]) < 0.05 and abs(fa["end_tilt_deg"] - fb["end_tilt_deg"]) < 0.5

@@ -52,6 +52,7 @@ from hoverfly.core.failsafe import (
     FaultWatch,
 )
 from hoverfly.core.filters import AccelFilter, GyroFilter
+from hoverfly.core.fixedrate import FixedRate
 from hoverfly.core.logger import Logger
 from hoverfly.core.mixer import Mixer
 from hoverfly.core.motortest import MotorTest
@@ -79,6 +80,8 @@ class Flight:
         self.receiver = Receiver()
         self.controller = Controller(self.signals.pid_terms)
         self.mixer = Mixer()
+        self.fixed = FixedRate()  # the controller and mixer in fixed point (pid_math)
+        self._fixed_on = False
         self.output = OutputStage()
         self.arming = Arming(self.events)
         self.motor_test = MotorTest(self.arming)
@@ -154,6 +157,7 @@ class Flight:
         self.receiver.configure(p)
         self.controller.configure(p, hz)
         self.mixer.configure(p)
+        self._fixed_on = self.fixed.configure(self.controller, self.mixer, hz, p.get("pid_math"), self.signals)
         self.motor_count = self.mixer.n
         self.arming.configure(p)
         if p.get("arm_source") == "seed001":
@@ -251,12 +255,14 @@ class Flight:
         sp = s.setpoint
         self.rc.update(sp)
         self.command(sp)
-        # 4. controller
+        # 4. controller and 5. mixer: in fixed point (pid_math; MicroPython's zero-allocation pass), or float
         armed = self.arming.armed
-        self.controller.update(sp, s.attitude, s.gyro_rad_s, dt_s, self.i_active, self.mixer.saturated,
-                               s.torque_norm)
-        # 5. mixer
-        self.mixer.update(sp.throttle_norm, s.torque_norm, self.airmode_active, s.motor_norm)
+        if self._fixed_on:
+            self.fixed.update(sp, s.attitude, dt_us, self.i_active, self.airmode_active)
+        else:
+            self.controller.update(sp, s.attitude, s.gyro_rad_s, dt_s, self.i_active, self.mixer.saturated,
+                                   s.torque_norm)
+            self.mixer.update(sp.throttle_norm, s.torque_norm, self.airmode_active, s.motor_norm)
         # 6. outputs: idle..max while armed, a bench motor test while disarmed, then the board's codec
         out = s.motor_out
         n = self.motor_count

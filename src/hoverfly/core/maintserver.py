@@ -218,12 +218,14 @@ class MaintServer:
             att = s.attitude
             return (att.roll_rad, att.pitch_rad, att.yaw_rad)[_AXES.index(name[5:])] * _DEG
         if "_PID_" in name:
-            pid = getattr(f.controller, name[:name.index("_")])
+            # From the pass's signals, which the float and the fixed-point controller both write.
+            k = _AXES.index(name[:name.index("_")])
             term = name[-1]
             if term == "r":
-                return pid.error_rad_s * _DEG
+                return (s.setpoint.rate_rad_s[k] - s.gyro_rad_s[k]) * _DEG
             # PID terms in Betaflight PID-sum units (1000 = the mixer's full range)
-            return {"p": pid.p, "i": pid.i, "d": pid.d, "u": pid.out}[term] * 1000.0
+            t = s.pid_terms
+            return {"p": t[k], "i": t[k + 3], "d": t[k + 6], "u": s.torque_norm[k]}[term] * 1000.0
         if name.startswith("motor") and name.endswith("_signal"):
             k = int(name[5]) - 1
             if k >= f.motor_count:

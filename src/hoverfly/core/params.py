@@ -17,6 +17,7 @@ FRAMES = ("quadx", "quadx_seed000", "quadp", "hexx", "tri")
 MODES = ("acro", "angle", "horizon")
 FILTER_TYPES = ("pt1", "pt2", "biquad")
 TPA_MODES = ("pd", "d")
+PID_MATHS = ("auto", "float", "fixed")
 ESTIMATORS = ("mahony", "external")
 FAILSAFE_PROCEDURES = ("drop", "land", "glide")
 ARM_SOURCES = ("range", "seed001")
@@ -74,6 +75,7 @@ PARAMS = (
     ("iterm_limit",        400,    0,     500,   "",            LIVE,   "I-term limit, Betaflight PID-sum units"),
     ("pidsum_limit",       500,  100,    1000,   "",            LIVE,   "roll/pitch PID-sum limit, Betaflight units"),
     ("pidsum_limit_yaw",   400,  100,    1000,   "",            LIVE,   "yaw PID-sum limit, Betaflight units"),
+    ("pid_math",        "auto",    0,      0,    PID_MATHS,     LIVE,   "PID and mixer arithmetic: auto = fixed point on MicroPython (no allocation), float elsewhere"),
     ("tpa_mode",           "d",    0,      0,    TPA_MODES,     LIVE,   "TPA reduces P and D, or D only"),
     ("tpa_rate",            65,    0,     100,   "%",           LIVE,   "TPA: gain cut at full throttle"),
     ("tpa_breakpoint",    1350,  750,    2250,   "us",          LIVE,   "TPA: throttle where the cut starts"),

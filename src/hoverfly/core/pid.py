@@ -21,7 +21,7 @@ _I_SCALE = 0.244381 * _RAD_TO_DEG * 1e-3
 _D_SCALE = 0.000529 * _RAD_TO_DEG * 1e-3
 _F_SCALE = 0.013754 * 0.01 * _RAD_TO_DEG * 1e-3
 # I-term relax: no integration while the setpoint moves faster than this (Betaflight's 30 deg/s threshold).
-_RELAX_THRESHOLD_RAD_S = 30.0 / _RAD_TO_DEG
+RELAX_THRESHOLD_RAD_S = 30.0 / _RAD_TO_DEG
 
 
 class AxisPid:
@@ -119,7 +119,7 @@ class AxisPid:
                 hp = setpoint_rad_s - y
                 if hp < 0:
                     hp = -hp
-                factor = 1.0 - hp / _RELAX_THRESHOLD_RAD_S
+                factor = 1.0 - hp / RELAX_THRESHOLD_RAD_S
                 if factor <= 0.0:
                     step = 0.0
                 elif factor != 1.0:

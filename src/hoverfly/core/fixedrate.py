@@ -1,0 +1,534 @@
+"""The rate loop in fixed point: the controller's PIDs and the mixer as integers (zero allocation).
+
+On MicroPython every float result is a new heap object; the controller and mixer made about 4.3 kB
+of them a pass (bench/core_stages.py). `FixedRate` runs the same arithmetic on small integers: the
+viper twin (accel/rate.py) on MicroPython, `rate_pass` below everywhere else (the reference,
+and what tests/portable/test_fixedrate.py holds the viper twin to, bit for bit). The float stages
+(core/control.py, core/pid.py, core/mixer.py) stay the reference for what the numbers mean: the
+coefficients here are worked out from their configured values, and the results agree with theirs
+within the rounding the formats below allow (the same test).
+
+Chosen by `pid_math`: "auto" uses it on MicroPython where the viper twin loads, "fixed" anywhere
+(CPython then runs the Python twin: slower, for comparison flights), "float" never. Not for a D-term
+biquad or a servo-yaw frame (tri): those keep the float stages.
+
+Formats (value = integer / 2**q):
+- rates, torques, PID terms, throttle, motor commands: Q16, inputs clamped to +-128 (2**23;
+  gyros saturate near 35 rad/s) and throttle to 0..1; sticks and TPA: Q15; angles: Q24, clamped
+  to +-4 rad (angle mode feeds their change forward at the loop rate: Q16 would step it by 8 mrad/s);
+- the I-term: Q26 (steps of 1.5e-8 of the mixer range); rate derivatives: Q7 (rad/s^2), clamped
+  to 2**26;
+- gains and filter coefficients: a 15-bit mantissa m and a shift s, value = m / 2**s.
+A product is `floor(c * x / 2**s)` with |c| < 2**15 and |x| < 2**31; the viper twin splits x in
+16-bit halves so no partial product passes 2**31 on a 32-bit port, and every sum stays below
+2**31 by the bounds above (tests/portable/test_fixedrate.py drives extreme inputs through a
+checked product). The pass's dt is clamped to 64..20000 µs (a derivative over less than 64 µs
+would need more bits; a gap over 20 ms is a stall, not a pass).
+Inputs that are not numbers (NaN) read as 0, infinities as the clamp.
+"""
+
+from array import array
+
+from hoverfly.compat import IS_MICROPYTHON, const
+from hoverfly.core.control import MODE_ACRO, MODE_ANGLE
+from hoverfly.core.pid import RELAX_THRESHOLD_RAD_S
+
+# ---- coefficient layout (co, array "i")
+ANG_GAIN_M = const(0)
+ANG_GAIN_S = const(1)
+ANG_FF_M = const(2)
+ANG_FF_S = const(3)
+ANG_LIM = const(4)
+HORIZON = const(5)
+TPA_ON = const(6)
+TPA_BP = const(7)
+TPA_M = const(8)
+TPA_S = const(9)
+TPA_P = const(10)
+MOTORS = const(11)
+DT_NOMINAL = const(12)
+AXIS = const(16)  # three axes of AX_SIZE from here
+AX_SIZE = const(20)
+KP_M = const(0)
+KP_S = const(1)
+KI_M = const(2)
+KI_S = const(3)
+KD_M = const(4)  # the D gain negated: D on measurement damps
+KD_S = const(5)
+KF_M = const(6)
+KF_S = const(7)
+KST_M = const(8)
+KST_S = const(9)
+ILIM = const(10)
+SLIM = const(11)
+RELAX = const(12)
+RK_M = const(13)
+RK_S = const(14)
+RT_M = const(15)
+RT_S = const(16)
+DK_M = const(17)
+DK_S = const(18)
+DPT2 = const(19)
+MIX = const(76)  # roll, pitch, yaw weights per motor (Q14), eight motors
+CO_SIZE = const(100)
+
+# ---- state layout (st, array "i")
+ST_AX = const(8)  # per axis: I (Q26), OUT, last gyro, last setpoint, relax y, D stage 1, D stage 2
+S_I = const(0)
+S_OUT = const(1)
+S_LG = const(2)
+S_LS = const(3)
+S_RY = const(4)
+S_D1 = const(5)
+S_D2 = const(6)
+S_LAST_ROLL = const(24)
+S_LAST_PITCH = const(25)
+S_DT = const(26)
+S_INV_DT = const(27)
+S_TPA = const(28)
+S_SAT = const(29)
+S_MIX = const(30)
+ST_SIZE = const(80)  # 40.. the viper twin's decoded inputs and staged outputs
+
+# flags argument
+F_MODE = const(3)
+F_I_ACTIVE = const(4)
+F_AIRMODE = const(8)
+
+# fin: the pass's scalar inputs, stored by FixedRate.update (a float store allocates nothing)
+IN_THR = const(0)
+IN_ROLL_SP = const(1)
+IN_PITCH_SP = const(2)
+IN_ROLL = const(3)
+IN_PITCH = const(4)
+
+_ONE16 = const(65536)
+_LIM16 = const(0x800000)  # 2**23
+_LIM24 = const(0x4000000)  # 2**26: +-4 rad in Q24
+_ONE15 = const(32768)
+_DERIV_LIM = const(0x4000000)  # 2**26
+_DSP_LIM = const(0x2000000)  # 2**25: 2 rad in Q24, the most an angle setpoint may move in a pass
+_FFA_LIM = const(0x800000)  # 2**23: the angle setpoint's speed, Q16
+_DT_MIN = const(64)
+_DT_MAX = const(20000)
+_INV16 = 1.0 / 65536.0
+_INV24 = 1.0 / 16777216.0
+_INV26 = 1.0 / 67108864.0
+_INV15 = 1.0 / 32768.0
+
+_rate_pass = None
+if IS_MICROPYTHON:
+    try:
+        from hoverfly.accel.rate import rate_pass as _rate_pass
+    except (SyntaxError, ImportError, NameError, ValueError):
+        _rate_pass = None
+
+HAS_ACCEL = _rate_pass is not None
+
+
+def coef(value, cap=40):
+    """(m, s) with value ~ m / 2**s, 2**14 <= |m| < 2**15 (smaller only where s would pass `cap`).
+    Raises ValueError for a value of 2**15 or more."""
+    if value == 0:
+        return 0, 0
+    a = value if value > 0 else -value
+    s = 0
+    while a * (1 << s) < 16384.0 and s < cap:
+        s += 1
+    m = int(a * (1 << s) + 0.5)
+    if m >= 32768:
+        if s == 0:
+            raise ValueError("coefficient out of range")
+        s -= 1
+        m = int(a * (1 << s) + 0.5)
+    return (m if value > 0 else -m), s
+
+
+def _mul(c, x, s):
+    """c * x / 2**s rounded (half up): the viper twin's split product, whole (tests swap in a checked one)."""
+    if s:
+        return (c * x + (1 << (s - 1))) >> s
+    return c * x
+
+
+def _dec(x, scale, lim):
+    """A float to fixed point: truncated toward 0, clamped to +-lim, NaN as 0 (accel/rate.py's decode)."""
+    if x != x:
+        return 0
+    v = x * scale
+    if v >= lim:
+        return lim
+    if v <= -lim:
+        return -lim
+    return int(v)
+
+
+def rate_pass(co, st, io, flags, dt_us):
+    """One pass of the angle loop, the three rate PIDs and the mixer. io = (fin, gyro, rate, stick,
+    terms, torque, motor): float arrays, read and written as core/control.py and core/mixer.py do.
+    Returns bit 0: saturated, bit 1: the TPA factor changed (st[S_TPA], Q15)."""
+    fin, gyro, rate, stick, terms, torque, motor = io
+    mul = _mul
+    # dt: clamped, 1/dt worked out when it changes
+    if dt_us <= 0:
+        dt_us = co[DT_NOMINAL]
+    if dt_us < _DT_MIN:
+        dt_us = _DT_MIN
+    elif dt_us > _DT_MAX:
+        dt_us = _DT_MAX
+    if dt_us != st[S_DT]:
+        st[S_DT] = dt_us
+        st[S_INV_DT] = 1000000 // dt_us
+    inv_dt = st[S_INV_DT]
+    mode = flags & F_MODE
+    thr = _dec(fin[IN_THR], 65536.0, _LIM16)
+    if thr < 0:
+        thr = 0
+    elif thr > _ONE16:
+        thr = _ONE16
+    sp0 = _dec(rate[0], 65536.0, _LIM16)
+    sp1 = _dec(rate[1], 65536.0, _LIM16)
+    sp2 = _dec(rate[2], 65536.0, _LIM16)
+    # the angle loop: P on the angle error plus feed-forward of the angle setpoint's speed
+    roll_sp = _dec(fin[IN_ROLL_SP], 16777216.0, _LIM24)
+    pitch_sp = _dec(fin[IN_PITCH_SP], 16777216.0, _LIM24)
+    if mode != MODE_ACRO:
+        lim = co[ANG_LIM]
+        v = roll_sp - st[S_LAST_ROLL]
+        if v > _DSP_LIM:  # 2 rad in a pass: even at 64 Hz, past the speed clamp below
+            v = _DSP_LIM
+        elif v < -_DSP_LIM:
+            v = -_DSP_LIM
+        v = mul(inv_dt, v, 8)
+        if v > _FFA_LIM:
+            v = _FFA_LIM
+        elif v < -_FFA_LIM:
+            v = -_FFA_LIM
+        lr = (mul(co[ANG_GAIN_M], roll_sp - _dec(fin[IN_ROLL], 16777216.0, _LIM24), co[ANG_GAIN_S] + 8)
+              + mul(co[ANG_FF_M], v, co[ANG_FF_S]))
+        if lr > lim:
+            lr = lim
+        elif lr < -lim:
+            lr = -lim
+        v = pitch_sp - st[S_LAST_PITCH]
+        if v > _DSP_LIM:  # 2 rad in a pass: even at 64 Hz, past the speed clamp below
+            v = _DSP_LIM
+        elif v < -_DSP_LIM:
+            v = -_DSP_LIM
+        v = mul(inv_dt, v, 8)
+        if v > _FFA_LIM:
+            v = _FFA_LIM
+        elif v < -_FFA_LIM:
+            v = -_FFA_LIM
+        lp = (mul(co[ANG_GAIN_M], pitch_sp - _dec(fin[IN_PITCH], 16777216.0, _LIM24), co[ANG_GAIN_S] + 8)
+              + mul(co[ANG_FF_M], v, co[ANG_FF_S]))
+        if lp > lim:
+            lp = lim
+        elif lp < -lim:
+            lp = -lim
+        if mode == MODE_ANGLE:
+            sp0 = lr
+            sp1 = lp
+        else:  # horizon: full levelling at centre stick, none at full deflection
+            d0 = _dec(stick[0], 32768.0, _ONE15)
+            if d0 < 0:
+                d0 = -d0
+            d1 = _dec(stick[1], 32768.0, _ONE15)
+            if d1 < 0:
+                d1 = -d1
+            if d1 > d0:
+                d0 = d1
+            w = (co[HORIZON] * (_ONE15 - d0)) >> 15
+            if w >= _ONE15:
+                sp0 = lr
+                sp1 = lp
+            elif w > 0:
+                sp0 += mul(w, lr - sp0, 15)
+                sp1 += mul(w, lp - sp1, 15)
+        rate[0] = sp0 * _INV16
+        rate[1] = sp1 * _INV16
+    st[S_LAST_ROLL] = roll_sp
+    st[S_LAST_PITCH] = pitch_sp
+    # TPA: the gain cut above the breakpoint
+    tpa = _ONE15
+    if co[TPA_ON] and thr > co[TPA_BP]:
+        tpa = _ONE15 - mul(co[TPA_M], thr - co[TPA_BP], co[TPA_S])
+    changed = 2 if tpa != st[S_TPA] else 0
+    st[S_TPA] = tpa
+    i_active = flags & F_I_ACTIVE
+    sat = st[S_SAT]
+    for k in range(3):
+        b = AXIS + k * AX_SIZE
+        sb = k * ST_AX
+        sp = sp0 if k == 0 else (sp1 if k == 1 else sp2)
+        g = _dec(gyro[k], 65536.0, _LIM16)
+        t = tpa if k != 2 else _ONE15
+        err = sp - g
+        p = mul(co[b + KP_M], err, co[b + KP_S])
+        if co[TPA_P] and t != _ONE15:
+            p = mul(t, p, 15)
+        if i_active:
+            i = st[sb + S_I]
+            step = mul(co[b + KI_M], mul(dt_us, err, 8), co[b + KI_S])
+            if co[b + RELAX]:
+                y = st[sb + S_RY]
+                y += mul(co[b + RK_M], sp - y, co[b + RK_S])
+                st[sb + S_RY] = y
+                hp = sp - y
+                if hp < 0:
+                    hp = -hp
+                factor = _ONE15 - mul(co[b + RT_M], hp, co[b + RT_S])
+                if factor <= 0:
+                    step = 0
+                elif factor != _ONE15:
+                    step = mul(factor, step, 15)
+            if not sat or (step > 0) != (st[sb + S_OUT] > 0):
+                i += step
+            lim = co[b + ILIM]
+            if i > lim:
+                i = lim
+            elif i < -lim:
+                i = -lim
+        else:
+            i = 0
+        st[sb + S_I] = i
+        # D on measurement through its low-pass (PT1, or PT2 as two stages)
+        x = mul(inv_dt, g - st[sb + S_LG], 9)
+        if x > _DERIV_LIM:
+            x = _DERIV_LIM
+        elif x < -_DERIV_LIM:
+            x = -_DERIV_LIM
+        st[sb + S_LG] = g
+        y = st[sb + S_D1]
+        y += mul(co[b + DK_M], x - y, co[b + DK_S])
+        st[sb + S_D1] = y
+        if co[b + DPT2]:
+            y2 = st[sb + S_D2]
+            y2 += mul(co[b + DK_M], y - y2, co[b + DK_S])
+            st[sb + S_D2] = y2
+            y = y2
+        d = mul(co[b + KD_M], y, co[b + KD_S])
+        if t != _ONE15:
+            d = mul(t, d, 15)
+        # feed-forward of the setpoint's change, and the static feed-forward (PIFF)
+        x = mul(inv_dt, sp - st[sb + S_LS], 9)
+        if x > _DERIV_LIM:
+            x = _DERIV_LIM
+        elif x < -_DERIV_LIM:
+            x = -_DERIV_LIM
+        f = mul(co[b + KF_M], x, co[b + KF_S]) + mul(co[b + KST_M], sp, co[b + KST_S])
+        st[sb + S_LS] = sp
+        out = p + (i >> 10) + d + f
+        lim = co[b + SLIM]
+        if out > lim:
+            out = lim
+        elif out < -lim:
+            out = -lim
+        st[sb + S_OUT] = out
+        terms[k] = p * _INV16
+        terms[k + 3] = i * _INV26
+        terms[k + 6] = d * _INV16
+        terms[k + 9] = f * _INV16
+        torque[k] = out * _INV16
+    # the mixer: torques to motors, desaturated as core/mixer.py does
+    r = st[S_OUT]
+    pt = st[ST_AX + S_OUT]
+    yw = st[2 * ST_AX + S_OUT]
+    n = co[MOTORS]
+    lo = 0x40000000
+    hi = -0x40000000
+    for m in range(n):
+        w = MIX + 3 * m
+        v = mul(co[w], r, 14) + mul(co[w + 1], pt, 14) + mul(co[w + 2], yw, 14)
+        st[S_MIX + m] = v
+        if v < lo:
+            lo = v
+        if v > hi:
+            hi = v
+    span = hi - lo
+    sat = 0
+    airmode = flags & F_AIRMODE
+    throttle = thr
+    if span > _ONE16:
+        scale = 0x40000000 // span
+        for m in range(n):
+            st[S_MIX + m] = mul(scale, st[S_MIX + m], 14)
+        lo = mul(scale, lo, 14)
+        hi = mul(scale, hi, 14)
+        if airmode:
+            throttle = _ONE16 >> 1
+        sat = 1
+    if airmode or span > _ONE16:
+        if throttle + hi > _ONE16:
+            throttle = _ONE16 - hi
+        if throttle + lo < 0:
+            throttle = -lo
+    for m in range(n):
+        v = throttle + st[S_MIX + m]
+        if v < 0:
+            v = 0
+            sat = 1
+        elif v > _ONE16:
+            v = _ONE16
+            sat = 1
+        motor[m] = v * _INV16
+    st[S_SAT] = sat
+    return sat | changed
+
+
+if _rate_pass is None:
+    _rate_pass = rate_pass
+
+
+def _q(value, one):
+    """A configured float as fixed point (rounded), for limits and thresholds."""
+    return int(value * one + (0.5 if value >= 0 else -0.5))
+
+
+class FixedRate:
+    """The controller and mixer of a flight as one fixed-point pass (see the module docstring).
+
+    `configure(controller, mixer, loop_hz, pid_math)` returns whether the fixed pass runs: it reads
+    the float stages' configured gains and filters, and takes over their state (I-terms, filters,
+    last samples) so a switch mid-session starts where they were. `update()` then stands in for
+    `Controller.update` plus `Mixer.update`; `release()` hands the state back to the float stages."""
+
+    def __init__(self):
+        self.co = array("i", [0] * CO_SIZE)
+        self.st = array("i", [0] * ST_SIZE)
+        self.fin = array("f", [0.0] * 5)
+        self.active = False
+        self.accel = HAS_ACCEL
+        self._io = None
+        self._controller = None
+        self._mixer = None
+
+    def configure(self, controller, mixer, loop_hz, pid_math, signals):
+        supported = not mixer.servo_yaw and mixer.n <= 8
+        for pid in (controller.roll, controller.pitch, controller.yaw):
+            if pid.dterm_filter._active is pid.dterm_filter._biquad:
+                supported = False
+        want = pid_math == "fixed" or (pid_math == "auto" and HAS_ACCEL)
+        if self.active and not (want and supported):
+            self.release()
+        if not (want and supported):
+            self.active = False
+            return False
+        self._controller = controller
+        self._mixer = mixer
+        sp = signals.setpoint
+        self._io = (self.fin, signals.gyro_rad_s, sp.rate_rad_s, sp.stick_norm, signals.pid_terms,
+                    signals.torque_norm, signals.motor_norm)
+        co = self.co
+        c = controller
+        co[ANG_GAIN_M], co[ANG_GAIN_S] = coef(c.angle_gain)
+        co[ANG_FF_M], co[ANG_FF_S] = coef(c.angle_ff)
+        co[ANG_LIM] = _q(c.angle_rate_limit, _ONE16)
+        co[HORIZON] = _q(c.horizon_strength, _ONE15)
+        bp = c.tpa_breakpoint
+        co[TPA_ON] = 1 if bp < 1.0 else 0
+        co[TPA_BP] = _q(bp, _ONE16)
+        # tpa = 1 - rate * (thr - bp) / (1 - bp): Q16 throttle in, Q15 cut out
+        co[TPA_M], co[TPA_S] = coef(c.tpa_rate / (1.0 - bp) * 0.5) if bp < 1.0 else (0, 0)
+        co[TPA_P] = 1 if c.roll.tpa_on_p else 0
+        co[MOTORS] = mixer.n
+        co[DT_NOMINAL] = 1000000 // loop_hz
+        for k, pid in enumerate((c.roll, c.pitch, c.yaw)):
+            b = AXIS + k * AX_SIZE
+            co[b + KP_M], co[b + KP_S] = coef(pid.kp)
+            co[b + KI_M], co[b + KI_S] = coef(pid.ki * 0.262144)  # Q8 rad*µs in, Q26 out: 2**18 / 1e6
+            co[b + KD_M], co[b + KD_S] = coef(-pid.kd * 512.0)  # Q7 derivative in, Q16 out
+            co[b + KF_M], co[b + KF_S] = coef(pid.kf * 512.0)
+            co[b + KST_M], co[b + KST_S] = coef(pid.k_static)
+            co[b + ILIM] = _q(pid.i_limit, 1 << 26)
+            co[b + SLIM] = _q(pid.sum_limit, _ONE16)
+            co[b + RELAX] = 1 if pid.relax else 0
+            co[b + RK_M], co[b + RK_S] = coef(pid.relax_filter.k)
+            # factor = 1 - |hp| / threshold: Q16 in, Q15 out
+            co[b + RT_M], co[b + RT_S] = coef(0.5 / RELAX_THRESHOLD_RAD_S)
+            lp = pid.dterm_filter
+            pt2 = lp._active is lp._pt2
+            co[b + DK_M], co[b + DK_S] = coef(lp._pt2.k if pt2 else lp._pt1.k)
+            co[b + DPT2] = 1 if pt2 else 0
+        for m in range(8):
+            w = MIX + 3 * m
+            if m < mixer.n:
+                co[w] = _q(mixer.roll_w[m], 16384)
+                co[w + 1] = _q(mixer.pitch_w[m], 16384)
+                co[w + 2] = _q(mixer.yaw_w[m], 16384)
+            else:
+                co[w] = co[w + 1] = co[w + 2] = 0
+        if not self.active:
+            self._take_state()
+        self.active = True
+        return True
+
+    def _take_state(self):
+        c = self._controller
+        st = self.st
+        for k, pid in enumerate((c.roll, c.pitch, c.yaw)):
+            sb = k * ST_AX
+            st[sb + S_I] = _q(pid.i, 1 << 26)
+            st[sb + S_OUT] = _q(pid.out, _ONE16)
+            st[sb + S_LG] = _dec(pid._last_gyro, 65536.0, _LIM16)
+            st[sb + S_LS] = _dec(pid._last_setpoint, 65536.0, _LIM16)
+            st[sb + S_RY] = _dec(pid.relax_filter.y, 65536.0, _LIM16)
+            lp = pid.dterm_filter
+            if lp._active is lp._pt2:
+                st[sb + S_D1] = _dec(lp._pt2.s1, 128.0, _DERIV_LIM)
+                st[sb + S_D2] = _dec(lp._pt2.y, 128.0, _DERIV_LIM)
+            else:
+                st[sb + S_D1] = _dec(lp._pt1.y, 128.0, _DERIV_LIM)
+                st[sb + S_D2] = 0
+        st[S_LAST_ROLL] = _dec(c._last_roll_sp, 16777216.0, _LIM24)
+        st[S_LAST_PITCH] = _dec(c._last_pitch_sp, 16777216.0, _LIM24)
+        st[S_DT] = 0
+        st[S_TPA] = _q(c.tpa, _ONE15)
+        st[S_SAT] = 1 if self._mixer.saturated else 0
+
+    def release(self):
+        """Give the state back to the float stages (the fixed pass stops)."""
+        if self.active:
+            self.give_state()
+            self.active = False
+
+    def give_state(self):
+        """Write the fixed pass's state into the float stages (release; tests compare a pass from it)."""
+        c = self._controller
+        st = self.st
+        for k, pid in enumerate((c.roll, c.pitch, c.yaw)):
+            sb = k * ST_AX
+            pid.i = st[sb + S_I] * _INV26
+            pid.out = st[sb + S_OUT] * _INV16
+            pid._last_gyro = st[sb + S_LG] * _INV16
+            pid._last_setpoint = st[sb + S_LS] * _INV16
+            pid.relax_filter.y = st[sb + S_RY] * _INV16
+            lp = pid.dterm_filter
+            if lp._active is lp._pt2:
+                lp._pt2.s1 = st[sb + S_D1] / 128.0
+                lp._pt2.y = st[sb + S_D2] / 128.0
+            else:
+                lp._pt1.y = st[sb + S_D1] / 128.0
+        c._last_roll_sp = st[S_LAST_ROLL] * _INV24
+        c._last_pitch_sp = st[S_LAST_PITCH] * _INV24
+        c.tpa = st[S_TPA] * _INV15
+        self._mixer.saturated = st[S_SAT] != 0
+
+    def update(self, sp, attitude, dt_us, i_active, airmode_active):
+        """The controller and mixer for this pass (Flight.step's steps 4 and 5)."""
+        fin = self.fin
+        fin[0] = sp.throttle_norm
+        fin[1] = sp.roll_angle_rad
+        fin[2] = sp.pitch_angle_rad
+        fin[3] = attitude.roll_rad
+        fin[4] = attitude.pitch_rad
+        flags = sp.mode
+        if i_active:
+            flags |= F_I_ACTIVE
+        if airmode_active:
+            flags |= F_AIRMODE
+        r = _rate_pass(self.co, self.st, self._io, flags, dt_us)
+        self._mixer.saturated = (r & 1) != 0
+        if r & 2:
+            self._controller.tpa = self.st[S_TPA] * _INV15
+
