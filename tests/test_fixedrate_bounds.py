@@ -11,12 +11,9 @@ import math
 import random
 
 import pytest
+from test_fixedrate import _stages  # tests/portable (conftest puts it on the path)
 
 from hoverfly.core import fixedrate
-from hoverfly.core.control import Controller
-from hoverfly.core.mixer import Mixer
-from hoverfly.core.params import Params
-from hoverfly.core.signals import Signals
 
 _LIMIT = 1 << 31
 
@@ -74,20 +71,6 @@ def checked(monkeypatch):
     monkeypatch.setattr(fixedrate, "_dec", dec)
 
 
-def _stages(sets):
-    p = Params()
-    for name, value in sets:
-        p.set(name, value)
-    s = Signals()
-    c = Controller(s.pid_terms)
-    m = Mixer()
-    c.configure(p, 1000)
-    m.configure(p)
-    fx = fixedrate.FixedRate()
-    assert fx.configure(c, m, 1000, "fixed", s)
-    return s, fx
-
-
 # The largest gains and limits the parameters allow, and the settings that open each path.
 _EXTREME = (
     (("p_roll", 250), ("i_roll", 250), ("d_roll", 250), ("f_roll", 1000), ("p_pitch", 250), ("i_pitch", 250),
@@ -104,7 +87,8 @@ _WILD = (float("nan"), float("inf"), -float("inf"), 1e30, -1e30, 127.9, -127.9, 
 
 @pytest.mark.parametrize("sets", _EXTREME)
 def test_no_intermediate_reaches_2_to_the_31_on_extreme_inputs(checked, sets):
-    s, fx = _stages(sets)
+    s, c, m, fx, on = _stages(sets)
+    assert on
     sp = s.setpoint
     rnd = random.Random(4)
     worst_i = 0

@@ -13,6 +13,8 @@ bit equal. What differs is only how the machine does it:
   an array store of `v / 2**q` does. So no float object is made at all.
 - `ptr32` loads are zero-extended on a 64-bit port: values that may be negative are sign-extended by
   `(v << sx) >> sx`, sx 32 there and 0 on a 32-bit port.
+- The product is written out at each use rather than called: a call from viper code to a viper
+  function costs ~85 ns on the unix VM, the inline product a few.
 - No constant of 2**30 or more appears (not a small int on a 32-bit port): those are shifted up
   at run time from `one`.
 

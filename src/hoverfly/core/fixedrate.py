@@ -163,6 +163,27 @@ def _dec(x, scale, lim):
     return int(v)
 
 
+def _level_rate(co, st, last, angle_sp, angle, inv_dt):
+    """Angle mode's rate setpoint for one axis (Q16) from its angle setpoint and angle (Q24)."""
+    v = angle_sp - st[last]
+    if v > _DSP_LIM:  # 2 rad in a pass: even at 64 Hz, past the speed clamp below
+        v = _DSP_LIM
+    elif v < -_DSP_LIM:
+        v = -_DSP_LIM
+    v = _mul(inv_dt, v, 8)
+    if v > _FFA_LIM:
+        v = _FFA_LIM
+    elif v < -_FFA_LIM:
+        v = -_FFA_LIM
+    rate = _mul(co[ANG_GAIN_M], angle_sp - angle, co[ANG_GAIN_S] + 8) + _mul(co[ANG_FF_M], v, co[ANG_FF_S])
+    lim = co[ANG_LIM]
+    if rate > lim:
+        return lim
+    if rate < -lim:
+        return -lim
+    return rate
+
+
 def rate_pass(co, st, io, flags, dt_us):
     """One pass of the angle loop, the three rate PIDs and the mixer. io = (fin, gyro, rate, stick,
     terms, torque, motor): float arrays, read and written as core/control.py and core/mixer.py do.
@@ -193,39 +214,8 @@ def rate_pass(co, st, io, flags, dt_us):
     roll_sp = _dec(fin[IN_ROLL_SP], 16777216.0, _LIM24)
     pitch_sp = _dec(fin[IN_PITCH_SP], 16777216.0, _LIM24)
     if mode != MODE_ACRO:
-        lim = co[ANG_LIM]
-        v = roll_sp - st[S_LAST_ROLL]
-        if v > _DSP_LIM:  # 2 rad in a pass: even at 64 Hz, past the speed clamp below
-            v = _DSP_LIM
-        elif v < -_DSP_LIM:
-            v = -_DSP_LIM
-        v = mul(inv_dt, v, 8)
-        if v > _FFA_LIM:
-            v = _FFA_LIM
-        elif v < -_FFA_LIM:
-            v = -_FFA_LIM
-        lr = (mul(co[ANG_GAIN_M], roll_sp - _dec(fin[IN_ROLL], 16777216.0, _LIM24), co[ANG_GAIN_S] + 8)
-              + mul(co[ANG_FF_M], v, co[ANG_FF_S]))
-        if lr > lim:
-            lr = lim
-        elif lr < -lim:
-            lr = -lim
-        v = pitch_sp - st[S_LAST_PITCH]
-        if v > _DSP_LIM:  # 2 rad in a pass: even at 64 Hz, past the speed clamp below
-            v = _DSP_LIM
-        elif v < -_DSP_LIM:
-            v = -_DSP_LIM
-        v = mul(inv_dt, v, 8)
-        if v > _FFA_LIM:
-            v = _FFA_LIM
-        elif v < -_FFA_LIM:
-            v = -_FFA_LIM
-        lp = (mul(co[ANG_GAIN_M], pitch_sp - _dec(fin[IN_PITCH], 16777216.0, _LIM24), co[ANG_GAIN_S] + 8)
-              + mul(co[ANG_FF_M], v, co[ANG_FF_S]))
-        if lp > lim:
-            lp = lim
-        elif lp < -lim:
-            lp = -lim
+        lr = _level_rate(co, st, S_LAST_ROLL, roll_sp, _dec(fin[IN_ROLL], 16777216.0, _LIM24), inv_dt)
+        lp = _level_rate(co, st, S_LAST_PITCH, pitch_sp, _dec(fin[IN_PITCH], 16777216.0, _LIM24), inv_dt)
         if mode == MODE_ANGLE:
             sp0 = lr
             sp1 = lp
