@@ -187,10 +187,20 @@ def test_a_pass_without_a_new_imu_sample_logs_integral_dt_zero():
     board_ref[0].imu = True
     for k in (5, 6):
         f.step(100000 + k * _PERIOD_US)
+    assert f.logger._fast == (f.logger._rec is not None)
     f.logger.flush()
     sc = _parse(sink.data)[2]["sensor_combined"]
     assert [struct.unpack_from("<I", p, 20)[0] for p in sc[-3:]] == [0, _PERIOD_US, _PERIOD_US]
-    assert f.logger._fast == (f.logger._rec is not None)
+
+
+def test_a_flush_mid_flight_hands_each_frame_over_once():
+    f, sink = _fly(30)  # flushed at the end
+    for k in range(31, 61):
+        f.step(100000 + k * _PERIOD_US)
+    f.logger.flush()
+    ts = [struct.unpack_from("<Q", p, 0)[0] for p in _parse(sink.data)[2]["vehicle_attitude"]]
+    assert ts == [k * _PERIOD_US for k in range(1, 61)]
+    assert f.logger.frames == 60
 
 
 def test_logging_rate_is_a_parameter():

@@ -683,9 +683,11 @@ class Logger:
         )
 
     def flush(self):
-        """Hand the staged frames to the sink now (close() and every other log write do this first)."""
+        """Hand the staged frames to the sink now (close() and every other log write do this first).
+        The every-pass closure goes too: its count of staged frames would still hold the ones
+        handed over here; the next pass takes update(), which puts it back."""
         if self._fast:
-            self._fast_sync()
+            self._use_fast_update(False)
         if self._staged > 0 and self.sink is not None:
             self._flush()
 
