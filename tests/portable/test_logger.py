@@ -203,6 +203,21 @@ def test_a_flush_mid_flight_hands_each_frame_over_once():
     assert f.logger.frames == 60
 
 
+def test_the_pass_reaches_the_logger_through_one_flight_attribute():
+    # Flight.step calls flight.log_pass: the logger's update while a log is open, else nothing.
+    f, sink = _fly(5, start_log=False)
+    assert f.log_pass is None
+    f.logger.open(sink)
+    t = 100000 + 6 * _PERIOD_US
+    f.step(t)
+    assert f.log_pass is not None and f.log_pass == f.logger.update
+    f.logger.close()
+    assert f.log_pass is None
+    n = len(sink.data)
+    f.step(t + _PERIOD_US)
+    assert len(sink.data) == n
+
+
 def test_logging_rate_is_a_parameter():
     f, sink = _fly(100, rate_hz=250)
     samples = _parse(sink.data)[2]

@@ -285,8 +285,9 @@ class Flight:
         sched = self.scheduler
         if ticks_diff(now_us, sched.next_due_us) >= 0:  # most passes run no task: not even the call
             sched.run(now_us)
-        if self.logger.active:
-            self.logger.update(now_us)
+        log_pass = self.log_pass  # the logger's update while a log is open, else None (Logger sets it)
+        if log_pass is not None:
+            log_pass(now_us)
 
     def command(self, sp):
         """Who flies: the pilot, the autopilot (seed 004) or the failsafe; and whether I-term and

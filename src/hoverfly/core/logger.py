@@ -3,9 +3,10 @@
 Takes the Flight it logs (signals, PID terms, events, parameters, scheduler and link
 statistics) and a sink (`open(sink)`: a RingSink the board drains in its slack, or a file).
 Gives a ULog that pyulog, PlotJuggler and Flight Review read, with PX4 topic names where
-one applies. Flight.step calls `update(now_us)` last in the pass while a sink is open (not a
-task-table row: dispatching a task due every pass cost more than the logging it ran), so it
-sees exactly what the pass consumed and produced; below the loop rate it logs every n-th pass.
+one applies. Flight.step calls `update(now_us)` last in the pass while a sink is open, through
+`Flight.log_pass`, which the logger keeps set to its `update` (None with no sink; not a task-table
+row: dispatching a task due every pass cost more than the logging it ran), so it sees exactly what
+the pass consumed and produced; below the loop rate it logs every n-th pass.
 
 Topics at the logging rate, one frame per run: vehicle_attitude, vehicle_angular_velocity
 (the filtered gyro the PID used), vehicle_rates_setpoint, actuator_outputs (motor_out:
@@ -347,6 +348,9 @@ class Logger:
         self._receiver = None
         self._dt_us = 1000
         self.active = False  # a sink is open and the rate is above 0: Flight.step calls update()
+        # Flight.step calls flight.log_pass(now_us) last in a pass: `update` while active, else None
+        # (kept on the Flight, so a pass pays one attribute look-up for it; _hand_over).
+        flight.log_pass = None
         self._start_us = 0  # Flight.start's tick time
         self._started = False
         self._from_start = False  # opened before Flight.start: log time counts from the start
@@ -376,6 +380,7 @@ class Logger:
         rate = self.rate_hz
         self.active = self.sink is not None and rate > 0
         if rate <= 0:
+            self._hand_over()
             return
         n = rate // _BATCH_HZ
         self._batch_n = self._batch if n > self._batch else (n if n > 0 else 1)
@@ -583,6 +588,11 @@ class Logger:
                 del self.update
             except (AttributeError, KeyError, TypeError):
                 pass
+        self._hand_over()
+
+    def _hand_over(self):
+        """The flight's call into the logger follows `active` and the closure (Flight.log_pass)."""
+        self.flight.log_pass = self.update if self.active else None
 
     def full_pass_next(self):
         """The next logged pass takes update()'s full path, which looks at the parameters and the
