@@ -206,15 +206,72 @@ def test_a_flush_mid_flight_hands_each_frame_over_once():
 def test_the_pass_reaches_the_logger_through_one_flight_attribute():
     # Flight.step calls flight.log_pass: the logger's update while a log is open, else nothing.
     f, sink = _fly(5, start_log=False)
-    assert f.log_pass is None
+    assert f.log_pass is None and f.log_rc is None
     f.logger.open(sink)
     t = 100000 + 6 * _PERIOD_US
     f.step(t)
     assert f.log_pass is not None and f.log_pass == f.logger.update
     f.logger.close()
-    assert f.log_pass is None
+    assert f.log_pass is None and f.log_rc is None
     n = len(sink.data)
     f.step(t + _PERIOD_US)
+    assert len(sink.data) == n
+
+
+def test_input_rc_is_stamped_with_the_time_of_the_pass_its_frame_came_in():
+    # While every pass is logged on the record path, Flight.task_rx hands each new frame to the
+    # logger (flight.log_rc); a pass without an IMU sample and a parameter write take the full
+    # update for a pass, which looks for frames itself. Every frame is logged once either way.
+    if encode_rc_frame is None:
+        return
+    board = _Board()
+    board.rx_frame = bytes(encode_rc_frame([1500] * 16))
+    f = Flight(board, None)
+    f.params.set("blackbox_rate_hz", 1000)
+    f.params.set("gyro_cal_ms", 100)
+    sink = _Sink()
+    f.logger.open(sink)
+    t = 100000
+    f.start(t)
+    expected = []
+    hooked = 0
+    for k in range(400):
+        board.k = k
+        board.imu = k % 97 != 50
+        if k == 230:
+            f.params.set("p_roll", 61)
+        hooked += f.log_rc is not None
+        frames = f.rc.frames
+        t += _PERIOD_US
+        f.step(t)
+        if f.rc.frames != frames:
+            expected.append(t - 100000)
+    f.logger.flush()
+    rc = _parse(sink.data)[2]["input_rc"]
+    assert [struct.unpack_from("<Q", p, 0)[0] for p in rc] == expected
+    assert len(expected) > 50
+    if f.logger._rec is not None:  # CPython: most frames came through the hook
+        assert hooked > 300
+
+
+def test_logging_rate_set_to_zero_mid_flight_stops_the_log_receiver_frames_and_all():
+    if encode_rc_frame is None:
+        return
+
+    def setup(f):
+        f.board.rx_frame = bytes(encode_rc_frame([1500] * 16))
+
+    f, sink = _fly(20, setup=setup)
+    f.params.set("blackbox_rate_hz", 0)  # applied by the next arming task (disarmed)
+    t = 100000 + 21 * _PERIOD_US
+    for k in range(20):
+        f.step(t + k * _PERIOD_US)
+    f.logger.flush()  # what was staged before the stop
+    n = len(sink.data)
+    assert not f.logger.active and f.log_pass is None and f.log_rc is None
+    for k in range(20, 600):  # far more receiver frames than a batch holds
+        f.step(t + k * _PERIOD_US)
+    f.logger.flush()
     assert len(sink.data) == n
 
 

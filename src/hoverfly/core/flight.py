@@ -365,6 +365,9 @@ class Flight:
                 self.arming.flags |= 1 << BOXFAILSAFE
             if self.failsafe.state == IDLE:
                 self.arming.on_switch(now_us, self.rc.arm_switch)
+            log_rc = self.log_rc  # the every-pass logger's input_rc for this frame, else None (Logger sets it)
+            if log_rc is not None:
+                log_rc()
         elif self.rx_ok and ticks_diff(now_us, self.last_frame_us) > self._rx_timeout_us:
             self.rx_ok = False
             self.events.record(self.last_frame_us, EV_RX_LOST, CAUSE_SWITCH if self.fs_switch else CAUSE_NO_FRAMES)

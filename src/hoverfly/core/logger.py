@@ -23,9 +23,11 @@ time into a column and one copy of the record into the staging buffer (`_fast_up
 closure installed as `update` while every pass is logged); the flush spreads the column over
 the batch's seven timestamp fields with one strided store each. Where there is no record
 (MicroPython) the frame is one struct.pack_into with each array as one bytes argument. input_rc
-waits in its own buffer and goes behind the batch's frames; the sink gets one write per batch
-(STAGE_FRAMES passes; flush() or close() hand over the rest); events and the slow topics are
-looked at once a batch. With no sink the pass skips the logger.
+waits in its own buffer and goes behind the batch's frames; while the closure is installed
+Flight.task_rx hands each new receiver frame to it (`Flight.log_rc`), else each logged pass looks
+for one. The sink gets one write per batch (STAGE_FRAMES passes; flush() or close() hand over the
+rest); events and the slow topics are looked at once a batch. With no sink the pass skips the
+logger.
 Figures: docs/logs.md "Logging cost", bench/log_loop.py.
 """
 
@@ -212,6 +214,7 @@ _RC_PACK_VALUES = "<5sQQiHH18HBBBBbf"  # the same from 18 separate ints (any oth
 # array -> its raw bytes: array.tobytes on CPython (one C call); MicroPython's array has no
 # tobytes, bytes(a) copies the same buffer there.
 _raw = getattr(array, "tobytes", bytes)
+_pack_into = struct.pack_into  # the closures' (a module global: one look-up, no copy into each call's frame)
 
 
 def _raw_view(a):
@@ -348,9 +351,13 @@ class Logger:
         self._receiver = None
         self._dt_us = 1000
         self.active = False  # a sink is open and the rate is above 0: Flight.step calls update()
-        # Flight.step calls flight.log_pass(now_us) last in a pass: `update` while active, else None
-        # (kept on the Flight, so a pass pays one attribute look-up for it; _hand_over).
+        # The flight's two calls into the logger, kept on the Flight so each costs one attribute
+        # look-up (_hand_over): Flight.step calls log_pass(now_us) last in a pass (`update` while
+        # active, else None); Flight.task_rx calls log_rc() on each new receiver frame while the
+        # every-pass closure is installed (it stages input_rc; else None, and update() looks).
         flight.log_pass = None
+        flight.log_rc = None
+        self._fast_rc = None  # the closure's input_rc stager (_fast_update)
         self._start_us = 0  # Flight.start's tick time
         self._started = False
         self._from_start = False  # opened before Flight.start: log time counts from the start
@@ -591,8 +598,10 @@ class Logger:
         self._hand_over()
 
     def _hand_over(self):
-        """The flight's call into the logger follows `active` and the closure (Flight.log_pass)."""
-        self.flight.log_pass = self.update if self.active else None
+        """The flight's calls into the logger follow `active` and the closure (log_pass, log_rc)."""
+        f = self.flight
+        f.log_pass = self.update if self.active else None
+        f.log_rc = self._fast_rc if self._fast and self.active else None
 
     def full_pass_next(self):
         """The next logged pass takes update()'s full path, which looks at the parameters and the
@@ -606,19 +615,20 @@ class Logger:
         (the every-pass path's attribute look-ups and branches cost more than the logging). The
         stages wrote the arrays into the record; the constant fields were set once; the time goes
         in a column the batch's flush spreads over its frames; one pack stores the changing
-        scalars; the record is copied into the stage. The log time, the staged count and the last
-        receiver frame seen live in the closure while it is installed (cells cost less than the
-        logger's attributes); `_fast_sync` writes them back, and everything else that reads them
-        (flush, close, removing the closure) calls it first. It does not look at the parameters or
-        the IMU sample: a parameter write or a pass without a new sample removes it
-        (full_pass_next) and update() does, until the sample is fresh again."""
+        scalars; the record is copied into the stage. The log time and the staged count live in the
+        closure while it is installed (cells cost less than the logger's attributes); `_fast_sync`
+        writes them back, and everything else that reads them (flush, close, removing the closure)
+        calls it first. It does not look for receiver frames: with it comes `_fast_rc`, which
+        Flight.task_rx calls on each (Flight.log_rc), stamped with the time of the pass it came in.
+        Nor does it look at the parameters or the IMU sample: a parameter write or a pass without a
+        new sample removes it (full_pass_next) and update() does, until the sample is fresh
+        again."""
         lg = self
         f = self.flight
         sp, c, mixer, rc, _ = self._ctx
         stage = self._stage
         buf = self._rec
         t_column = self._t_column
-        pack_into = struct.pack_into
         at_thrust = self._at_thrust
         pid_header = self._pid_header
         n = self._fast_n
@@ -626,32 +636,55 @@ class Logger:
         slots = tuple(slice(k * n, k * n + n) for k in range(batch_n))  # each staged frame's bytes
         t = self._t64
         i = self._staged
-        rc_seen = self._rc_seen
 
         def update(now_us):
-            nonlocal t, i, rc_seen
+            nonlocal t, i
             t += f.pass_dt_us
             t_column[i] = t
             i_active = f.i_active
-            pack_into(_SCALARS, buf, at_thrust, -sp.throttle_norm, not i_active, pid_header, 0, c.tpa, i_active,
-                      f.airmode_active, mixer.saturated, sp.mode)
+            _pack_into(_SCALARS, buf, at_thrust, -sp.throttle_norm, not i_active, pid_header, 0, c.tpa, i_active,
+                       f.airmode_active, mixer.saturated, sp.mode)
             stage[slots[i]] = buf
             i += 1
-            if rc.frames != rc_seen:
-                rc_seen = rc.frames
-                lg._stage_rc(t)
             if i >= batch_n:
                 lg._t64 = t
                 lg._staged = i
                 lg._batch_full(now_us, t)
                 i = lg._staged
 
+        # input_rc for a new receiver frame (Flight.task_rx, earlier in the pass: this pass's time is
+        # t + pass_dt_us). From a receiver that reports its link the same pack as _stage_rc's.
+        receiver = self._receiver
+        if receiver is not None and self._rc_whole:
+            rc_stage = self._rc_stage
+            rc_n = self._rc_n
+            rc_header = self._rc_header
+            ch = self._rc_ch
+
+            def rc_frame():
+                tt = t + f.pass_dt_us
+                lq = receiver.link_quality_pct
+                if lq > 100:
+                    lq = 100
+                elif lq < 0:
+                    lq = 0
+                off = lg._rc_off
+                _pack_into(_RC_PACK, rc_stage, off, rc_header, tt, tt, lq, receiver.errors & 0xFFFF,
+                           receiver.frames & 0xFFFF, _raw(ch), _RC_CHANNELS, receiver.rx_failsafe, not f.rx_ok, 0, lq,
+                           receiver.rssi_dbm)
+                lg._rc_off = off + rc_n
+        else:
+
+            def rc_frame():
+                lg._stage_rc(t + f.pass_dt_us)
+
         def sync():
             lg._t64 = t
             lg._staged = i
-            lg._rc_seen = rc_seen
+            lg._rc_seen = rc.frames  # every frame so far went through rc_frame
 
         self._fast_sync = sync
+        self._fast_rc = rc_frame
         return update
 
     def _batch_full(self, now_us, t):
