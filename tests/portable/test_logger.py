@@ -66,7 +66,7 @@ class _Sink:
 
 def _parse(data):
     """formats {name: fields}, subs {msg_id: name}, samples {name: [payload]}, strings, params,
-    syncs, dropouts."""
+    syncs, dropouts [duration_ms]."""
     assert bytes(data[0:7]) == b"ULog\x01\x12\x35"
     formats = {}
     subs = {}
@@ -74,7 +74,7 @@ def _parse(data):
     strings = []
     params = []
     syncs = 0
-    dropouts = 0
+    dropouts = []
     off = 16
     n = len(data)
     while off + 3 <= n:
@@ -101,7 +101,7 @@ def _parse(data):
         elif kind == 0x53:
             syncs += 1
         elif kind == 0x4F:
-            dropouts += 1
+            dropouts.append(body[0] | (body[1] << 8))
     assert off == n
     return formats, subs, samples, strings, params, syncs, dropouts
 
@@ -384,7 +384,12 @@ def test_a_full_ring_drops_whole_frames_and_marks_the_gap():
     ring.drain(take)
     samples = _parse(out)[2]
     assert len(samples["vehicle_attitude"]) == f.logger.frames
-    assert _parse(out)[6] >= 1  # a dropout 'O' marks the gap
+    # a dropout 'O' marks the gap: from the first lost frame's time to the first kept one's
+    ts = [struct.unpack_from("<Q", p, 0)[0] for p in samples["vehicle_attitude"]]
+    gaps = [(ts[k], ts[k + 1]) for k in range(len(ts) - 1) if ts[k + 1] - ts[k] > _PERIOD_US]
+    assert len(gaps) == 1
+    before, after = gaps[0]
+    assert (after - (before + _PERIOD_US)) // 1000 in _parse(out)[6]
 
 
 class _Writes:

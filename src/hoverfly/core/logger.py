@@ -18,16 +18,16 @@ parameter changes become `P` messages after that run's samples, and a sync marke
 about once a second.
 
 Cost: on CPython the arrays the fast topics record live in the signals' pass record (core/
-logframe.py), laid out as the frame: a logged pass is one pack of the changing scalars, the
-time into a column and one copy of the record into the staging buffer (`_fast_update`, a
-closure installed as `update` while every pass is logged); the flush spreads the column over
-the batch's seven timestamp fields with one strided store each. Where there is no record
-(MicroPython) the frame is one struct.pack_into with each array as one bytes argument. input_rc
-waits in its own buffer and goes behind the batch's frames; while the closure is installed
-Flight.task_rx hands each new receiver frame to it (`Flight.log_rc`), else each logged pass looks
-for one. The sink gets one write per batch (STAGE_FRAMES passes; flush() or close() hand over the
-rest); events and the slow topics are looked at once a batch. With no sink the pass skips the
-logger.
+logframe.py), laid out as the frame: a logged pass is one pack of the changing scalars (with the
+log time, as hoverfly_pid's timestamp) and one copy of the record into the staging buffer
+(`_fast_update`, a closure installed as `update` while every pass is logged); the flush copies
+that timestamp over the batch's six other timestamp fields with one strided store each. Where
+there is no record (MicroPython) the frame is one struct.pack_into with each array as one bytes
+argument. input_rc waits in its own buffer and goes behind the batch's frames; while the closure
+is installed Flight.task_rx hands each new receiver frame to it (`Flight.log_rc`), else each
+logged pass looks for one. The sink gets one write per batch (STAGE_FRAMES passes; flush() or
+close() hand over the rest); events and the slow topics are looked at once a batch. With no sink
+the pass skips the logger.
 Figures: docs/logs.md "Logging cost", bench/log_loop.py.
 """
 
@@ -54,6 +54,7 @@ from hoverfly.core.events import (
 from hoverfly.core.logframe import (
     ARRAY_FIELDS,
     FAST_PACK,
+    HEADER_BYTES,
     field_offsets,
     frame_format,
     header_offsets,
@@ -327,8 +328,8 @@ class Logger:
         self._stage = bytearray(self._batch * (self._fast_n + self._rc_n))
         self._stage_mv = memoryview(self._stage)
         self._rc_stage = bytearray(self._batch * self._rc_n)
-        self._t_column = array("Q", bytes(8 * self._batch))  # the staged frames' times
-        self._t_views = ()  # each fast timestamp field of the staged frames as a 'Q' view
+        self._t_views = ()  # each fast timestamp field but hoverfly_pid's of the staged frames as a 'Q' view
+        self._t_pid = None  # hoverfly_pid's timestamp of the staged frames (packed with each pass's scalars)
         self._staged = 0  # staged fast frames
         self._rc_off = 0  # staged input_rc bytes (_rc_n a sample)
         self._rc_ch = None  # the signals' rc_channels_us (bound at _begin)
@@ -507,7 +508,9 @@ class Logger:
         # The timestamps go in once per batch (_flush), a strided store per field into the stage.
         n = self._fast_n
         words = (self._batch - 1) * (n // 8) + 1  # from the field in frame 0 to it in the last frame
-        self._t_views = tuple(self._stage_mv[off : off + 8 * words].cast("Q") for off, _ in field_offsets("Q"))
+        views = [self._stage_mv[off : off + 8 * words].cast("Q") for off, _ in field_offsets("Q")]
+        self._t_pid = views.pop()  # hoverfly_pid's, the frame's last
+        self._t_views = tuple(views)
         ints = [record.view(off, "I") for off, _ in field_offsets("I")]
         self._nout = ints[0]
         self._integral_dt = (ints[1], ints[2])
@@ -553,11 +556,10 @@ class Logger:
             t = self._t64
         sp, c, mixer, rc, params = self._ctx
         i = self._staged
-        self._t_column[i] = t
         rec = self._rec
         if rec is not None:
             i_active = f.i_active
-            struct.pack_into(_SCALARS, rec, self._at_thrust, -sp.throttle_norm, not i_active, self._pid_header, 0,
+            struct.pack_into(_SCALARS, rec, self._at_thrust, -sp.throttle_norm, not i_active, self._pid_header, t,
                              c.tpa, i_active, f.airmode_active, mixer.saturated, sp.mode)
             if (f.imu_us == now_us) is not self._imu_fresh:
                 self._imu_fresh = not self._imu_fresh
@@ -613,9 +615,9 @@ class Logger:
         """`update` for the common case, logging every pass into the pass record (CPython): the
         same steps as update()'s record path with everything it reads bound once, as a closure
         (the every-pass path's attribute look-ups and branches cost more than the logging). The
-        stages wrote the arrays into the record; the constant fields were set once; the time goes
-        in a column the batch's flush spreads over its frames; one pack stores the changing
-        scalars; the record is copied into the stage. The log time and the staged count live in the
+        stages wrote the arrays into the record; the constant fields were set once; one pack stores
+        the changing scalars and the log time (hoverfly_pid's timestamp: the batch's flush copies
+        it to the other six); the record is copied into the stage. The log time and the staged count live in the
         closure while it is installed (cells cost less than the logger's attributes); `_fast_sync`
         writes them back, and everything else that reads them (flush, close, removing the closure)
         calls it first. It does not look for receiver frames: with it comes `_fast_rc`, which
@@ -628,7 +630,6 @@ class Logger:
         sp, c, mixer, rc, _ = self._ctx
         stage = self._stage
         buf = self._rec
-        t_column = self._t_column
         at_thrust = self._at_thrust
         pid_header = self._pid_header
         n = self._fast_n
@@ -640,9 +641,8 @@ class Logger:
         def update(now_us):
             nonlocal t, i
             t += f.pass_dt_us
-            t_column[i] = t
             i_active = f.i_active
-            _pack_into(_SCALARS, buf, at_thrust, -sp.throttle_norm, not i_active, pid_header, 0, c.tpa, i_active,
+            _pack_into(_SCALARS, buf, at_thrust, -sp.throttle_norm, not i_active, pid_header, t, c.tpa, i_active,
                        f.airmode_active, mixer.saturated, sp.mode)
             stage[slots[i]] = buf
             i += 1
@@ -740,11 +740,12 @@ class Logger:
             return
         n = frames * self._fast_n
         if self._rec is not None:
-            # Each timestamp field of the staged frames, one strided store from the column (the
-            # views' stride is the frame's size in 8-byte words).
-            col = memoryview(self._t_column)[:frames]
+            # hoverfly_pid's timestamp went in with each pass's scalars: every other timestamp field
+            # of the staged frames is one strided store from it (the views' stride is the frame's
+            # size in 8-byte words).
             step = self._fast_n // 8
             last = (frames - 1) * step + 1
+            col = self._t_pid[0:last:step]
             for v in self._t_views:
                 v[0:last:step] = col
         rc = self._rc_off // self._rc_n
@@ -754,22 +755,22 @@ class Logger:
             n += m
         self._staged = 0
         self._rc_off = 0
-        if self._write(self.sink, self._stage_mv[:n], self._t_column[0]):
+        if self._write(self.sink, self._stage_mv[:n]):
             self.frames += frames
             self.rc_frames += rc
             self.bytes += n
         else:
             self.dropped += frames + rc
 
-    def _write(self, sink, buf, t):
-        """One batch to the sink, whole or not at all; a refused batch opens a dropout (from `t`, its
-        first frame's time) that the next batch to fit closes."""
+    def _write(self, sink, buf):
+        """One batch to the sink, whole or not at all; a refused batch opens a dropout (from its first
+        frame's time) that the next batch to fit closes."""
         n = len(buf)
         if self._dropping:
             free = self._sink_free
             if free is not None and free() < n + 5:
                 return False
-            ms = (t - self._drop_t64) // 1000
+            ms = (_first_time(buf) - self._drop_t64) // 1000
             self.writer.dropout(ms)
             self._dropping = False
         try:
@@ -779,7 +780,7 @@ class Logger:
         if got is not None and got < n:
             if not self._dropping:
                 self._dropping = True
-                self._drop_t64 = t
+                self._drop_t64 = _first_time(buf)
             return False
         return True
 
@@ -898,6 +899,11 @@ class Logger:
             link = (_clamp_int(f.rc.frames, 0, _U32_MAX), 0, 0.0, 100 if f.rx_ok else 0, 0.0, False, f.rx_ok)
         w.write_data(ids["hoverfly_link"], t, link, True)
         w.maybe_sync(t)
+
+
+def _first_time(buf):
+    """The time of a batch's first frame: its vehicle_attitude timestamp, after the header."""
+    return struct.unpack_from("<Q", buf, HEADER_BYTES)[0]
 
 
 def _clamp_int(v, lo, hi):
