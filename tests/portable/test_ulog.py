@@ -337,6 +337,18 @@ def test_ring_full_drops_whole_messages_and_writer_marks_the_dropout():
     assert w.dropouts == 1
 
 
+def test_a_memoryview_written_into_the_ring_round_trips_across_the_wrap():
+    # The logger hands its batches over as memoryviews of its stage.
+    ring = RingSink(16)
+    out = bytearray()
+    stage = bytearray(b"0123456789abcdef")
+    assert ring.write(memoryview(stage)[0:10]) == 10
+    ring.drain(out.extend, 9)  # one byte stays: the next write straddles the end
+    assert ring.write(memoryview(stage)[4:14]) == 10
+    ring.drain(out.extend)
+    assert bytes(out) == b"0123456789" + b"456789abcd"
+
+
 def test_writer_through_a_ring_equals_direct_bytes():
     direct = ListSink()
     ring = RingSink(97)  # odd size so messages straddle the end

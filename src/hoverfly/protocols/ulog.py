@@ -582,18 +582,20 @@ class RingSink:
                 self.dropouts += 1
             return 0
         self.dropping = False
-        buf = self._buf
+        # Stored through the ring's memoryview: a bytearray's slice assignment copies a memoryview
+        # (the logger's batches) into a temporary first, CPython's memoryview copies it straight in.
+        mv = self._mv
         head = self._head
         first = self.size - head
         if n <= first:
-            buf[head : head + n] = data
+            mv[head : head + n] = data
         else:
             # Split across the end, once per trip round the ring: one memoryview (a small
             # allocation) instead of a byte-by-byte Python loop that would cost milliseconds
             # for a batch on an RP2040.
             src = memoryview(data)
-            buf[head:] = src[:first]
-            buf[: n - first] = src[first:n]
+            mv[head:] = src[:first]
+            mv[: n - first] = src[first:n]
         head += n
         if head >= self.size:
             head -= self.size
