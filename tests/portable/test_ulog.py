@@ -1,5 +1,7 @@
 """ULog writer: spec byte layouts (protocols.md 7.3, sim-physics-and-logs.md 6.1), refusals, ring sink."""
 
+import struct
+
 from hoverfly.compat import IS_MICROPYTHON, collect_garbage, disable_gc, enable_gc, mem_alloc
 from hoverfly.protocols.ulog import RingSink, UlogWriter
 
@@ -347,6 +349,45 @@ def test_a_memoryview_written_into_the_ring_round_trips_across_the_wrap():
     assert ring.write(memoryview(stage)[4:14]) == 10
     ring.drain(out.extend)
     assert bytes(out) == b"0123456789" + b"456789abcd"
+
+
+LINK_FIELDS = (
+    ("uint64_t", "timestamp"),
+    ("uint32_t", "frames"),
+    ("float", "rssi_dbm"),
+    ("bool", "ok"),
+)
+
+
+def test_messages_packed_by_data_layout_equal_write_data():
+    direct, sink_d = _writer(0)
+    packed, sink_p = _writer(0)
+    for w in (direct, packed):
+        w.add_format("rate", RATE_FIELDS)
+        w.add_format("link", LINK_FIELDS)
+    ids = [(w.subscribe("rate"), w.subscribe("link")) for w in (direct, packed)]
+    direct.write_data(ids[0][0], 7000, (0.5, -1.0, 2.0, 1))
+    direct.write_data(ids[0][1], 7000, (123456, -71.5, True))
+    head_r, fmt_r = packed.data_layout(ids[1][0])
+    head_l, fmt_l = packed.data_layout(ids[1][1])
+    assert head_r == bytes(sink_d.chunks[-2][0:5]) and head_l == bytes(sink_d.chunks[-1][0:5])
+    fmt = "<5s" + fmt_r + "5s" + fmt_l
+    buf = bytearray(struct.calcsize(fmt))
+    assert packed.write_packed(buf, fmt, (head_r, 7000, 0.5, -1.0, 2.0, 1, head_l, 7000, 123456, -71.5, True), 2, 7000)
+    assert sink_p.chunks[-1] == sink_d.chunks[-2] + sink_d.chunks[-1]  # two messages, one write
+    assert packed.messages == direct.messages and packed.bytes_written == direct.bytes_written
+    assert packed.data_layout(99) is None
+
+
+def test_write_packed_refuses_all_of_a_pack_it_cannot_pack():
+    w, sink = _writer(0)
+    w.add_format("link", LINK_FIELDS)
+    m = w.subscribe("link")
+    head, fmt = w.data_layout(m)
+    n = len(sink.chunks)
+    buf = bytearray(5 + 8 + 4 + 4 + 1)
+    assert not w.write_packed(buf, "<5s" + fmt, (head, 1000, "not a number", 0.0, True), 1, 1000)
+    assert w.refused == 1 and len(sink.chunks) == n
 
 
 def test_writer_through_a_ring_equals_direct_bytes():

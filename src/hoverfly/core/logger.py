@@ -26,8 +26,8 @@ there is no record (MicroPython) the frame is one struct.pack_into with each arr
 argument. input_rc waits in its own buffer and goes behind the batch's frames; while the closure
 is installed Flight.task_rx hands each new receiver frame to it (`Flight.log_rc`), else each
 logged pass looks for one. The sink gets one write per batch (STAGE_FRAMES passes; flush() or
-close() hand over the rest); events and the slow topics are looked at once a batch. With no sink
-the pass skips the logger.
+close() hand over the rest); events and the slow topics (one pack of all four) are looked at once
+a batch. With no sink the pass skips the logger.
 Figures: docs/logs.md "Logging cost", bench/log_loop.py.
 """
 
@@ -215,7 +215,7 @@ _RC_PACK_VALUES = "<5sQQiHH18HBBBBbf"  # the same from 18 separate ints (any oth
 # array -> its raw bytes: array.tobytes on CPython (one C call); MicroPython's array has no
 # tobytes, bytes(a) copies the same buffer there.
 _raw = getattr(array, "tobytes", bytes)
-_pack_into = struct.pack_into  # the closures' (a module global: one look-up, no copy into each call's frame)
+_pack_into = struct.pack_into  # the closures' one global look-up (a free variable costs a copy per call)
 
 
 def _raw_view(a):
@@ -350,12 +350,15 @@ class Logger:
         self._armed_t64 = 0
         self._h = []
         self._receiver = None
+        self._slow_fmt = ""  # battery_status, vehicle_status, hoverfly_loop, hoverfly_link: one pack
+        self._slow_heads = ()
+        self._slow_buf = None
         self._dt_us = 1000
         self.active = False  # a sink is open and the rate is above 0: Flight.step calls update()
-        # The flight's two calls into the logger, kept on the Flight so each costs one attribute
-        # look-up (_hand_over): Flight.step calls log_pass(now_us) last in a pass (`update` while
-        # active, else None); Flight.task_rx calls log_rc() on each new receiver frame while the
-        # every-pass closure is installed (it stages input_rc; else None, and update() looks).
+        # The two calls the flight makes into the logger, kept on the Flight so a pass pays one
+        # attribute look-up for each: Flight.step calls log_pass(now_us) last in a pass (`update`
+        # while active, else None); Flight.task_rx calls log_rc() on each new receiver frame while
+        # the every-pass closure is installed (it stages input_rc; else None and update() looks).
         flight.log_pass = None
         flight.log_rc = None
         self._fast_rc = None  # the closure's input_rc stager (_fast_update)
@@ -487,6 +490,16 @@ class Logger:
         self._rc_seen = 0
         self._slow_left = self._slow_every
         self._dropping = False
+        # The slow topics go out as one run of their four D messages, packed in one go (_log_slow).
+        fmt = "<"
+        heads = []
+        for name in SLOW_TOPICS:
+            head, payload = w.data_layout(ids[name])
+            heads.append(head)
+            fmt += "5s" + payload
+        self._slow_fmt = fmt
+        self._slow_heads = tuple(heads)
+        self._slow_buf = bytearray(struct.calcsize(fmt))
         w.maybe_sync(t0)
         self._check(now_us, t0)
         self._log_slow(t0)
@@ -617,14 +630,14 @@ class Logger:
         (the every-pass path's attribute look-ups and branches cost more than the logging). The
         stages wrote the arrays into the record; the constant fields were set once; one pack stores
         the changing scalars and the log time (hoverfly_pid's timestamp: the batch's flush copies
-        it to the other six); the record is copied into the stage. The log time and the staged count live in the
-        closure while it is installed (cells cost less than the logger's attributes); `_fast_sync`
-        writes them back, and everything else that reads them (flush, close, removing the closure)
-        calls it first. It does not look for receiver frames: with it comes `_fast_rc`, which
-        Flight.task_rx calls on each (Flight.log_rc), stamped with the time of the pass it came in.
-        Nor does it look at the parameters or the IMU sample: a parameter write or a pass without a
-        new sample removes it (full_pass_next) and update() does, until the sample is fresh
-        again."""
+        it to the other six); the record is copied into the stage. The log time and the staged
+        count live in the closure while it is installed (cells cost less than the logger's
+        attributes); `_fast_sync` writes them back, and everything else that reads them (flush,
+        close, removing the closure) calls it first. It does not look for receiver frames: with it
+        comes `_fast_rc`, which Flight.task_rx calls on each (Flight.log_rc), stamped with the time
+        of the pass it came in. Nor does it look at the parameters or the IMU sample: a parameter
+        write or a pass without a new sample removes it (full_pass_next) and update() does, until
+        the sample is fresh again."""
         lg = self
         f = self.flight
         sp, c, mixer, rc, _ = self._ctx
@@ -863,31 +876,19 @@ class Logger:
                 self.param_changes += 1
 
     def _log_slow(self, t):
+        """The slow topics (SLOW_TOPICS, about ten times a second): one pack of their four messages
+        into a buffer built at _begin, one write."""
         self._flush()
         f = self.flight
-        w = self.writer
-        ids = self._ids
         s = f.signals
         armed = f.arming.armed
         if armed and self._armed_t64 == 0:
             self._armed_t64 = t if t > 0 else 1
         elif not armed:
             self._armed_t64 = 0
-        mah = getattr(s, "mah_drawn", 0.0)
-        # Every integer below is clamped to its field's type here (in_range: the writer skips its checks).
-        w.write_data(ids["battery_status"], t, (s.battery_v, s.current_a, mah, -1.0, s.battery_v > 0.5), True)
-        mode = f.signals.setpoint.mode
+        mode = s.setpoint.mode
         fs_state = f.failsafe.state
-        w.write_data(ids["vehicle_status"], t, (
-            self._armed_t64, _ARMING_ARMED if armed else _ARMING_STANDBY,
-            _NAV_STATES[mode] if 0 <= mode < 3 else 0, fs_state != 0, not f.rx_ok,
-            _clamp_int(mode, 0, 255), _clamp_int(fs_state, 0, 255), f.imu_ok, f.calibration.calibrated), True)
         sc = f.scheduler
-        w.write_data(ids["hoverfly_loop"], t, (
-            _clamp_int(sc.passes, 0, _U32_MAX), _clamp_int(sc.cycle_us, 0, _U32_MAX),
-            _clamp_int(sc.cycle_max_us, 0, _U32_MAX), _clamp_int(sc.jitter_max_us, 0, _U32_MAX),
-            _clamp_int(sc.overruns, 0, _U32_MAX), _clamp_int(self.frames, 0, _U32_MAX),
-            _clamp_int(self.dropped, 0, _U32_MAX)), True)
         rec = getattr(f, "receiver", None)
         if rec is not None:
             link = (_clamp_int(getattr(rec, "frames", 0), 0, _U32_MAX),
@@ -897,8 +898,19 @@ class Logger:
                     float(getattr(rec, "rssi_dbm", 0.0)), bool(getattr(rec, "rx_failsafe", False)), f.rx_ok)
         else:
             link = (_clamp_int(f.rc.frames, 0, _U32_MAX), 0, 0.0, 100 if f.rx_ok else 0, 0.0, False, f.rx_ok)
-        w.write_data(ids["hoverfly_link"], t, link, True)
-        w.maybe_sync(t)
+        h0, h1, h2, h3 = self._slow_heads
+        # Every integer is clamped to its field's type here (write_packed does not check).
+        self.writer.write_packed(self._slow_buf, self._slow_fmt, (
+            h0, t, s.battery_v, s.current_a, getattr(s, "mah_drawn", 0.0), -1.0, s.battery_v > 0.5,
+            h1, t, self._armed_t64, _ARMING_ARMED if armed else _ARMING_STANDBY,
+            _NAV_STATES[mode] if 0 <= mode < 3 else 0, fs_state != 0, not f.rx_ok,
+            _clamp_int(mode, 0, 255), _clamp_int(fs_state, 0, 255), f.imu_ok, f.calibration.calibrated,
+            h2, t, _clamp_int(sc.passes, 0, _U32_MAX), _clamp_int(sc.cycle_us, 0, _U32_MAX),
+            _clamp_int(sc.cycle_max_us, 0, _U32_MAX), _clamp_int(sc.jitter_max_us, 0, _U32_MAX),
+            _clamp_int(sc.overruns, 0, _U32_MAX), _clamp_int(self.frames, 0, _U32_MAX),
+            _clamp_int(self.dropped, 0, _U32_MAX),
+            h3, t) + link, 4, t)
+        self.writer.maybe_sync(t)
 
 
 def _first_time(buf):

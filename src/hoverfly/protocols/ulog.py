@@ -483,6 +483,31 @@ class UlogWriter:
         self._last_ts[msg_id] = timestamp_us
         return self._emit_timed(buf, timestamp_us)
 
+    def data_layout(self, msg_id):
+        """(header, payload format) of topic msg_id's `D` message, for a caller that packs several
+        samples in one go and hands them over with write_packed: the 5 header bytes and the struct
+        format (no byte-order prefix) of its payload, timestamp first. None for an unknown topic or
+        one whose timestamp is not its first field."""
+        if not isinstance(msg_id, int) or msg_id < 0 or msg_id >= len(self._bufs) or self._ts_offset[msg_id] != 0:
+            return None
+        return bytes(self._bufs[msg_id][0:5]), self._fmts[msg_id][1:]
+
+    def write_packed(self, buf, fmt, values, count, timestamp_us):
+        """`count` whole `D` messages in one write: `values` (each message's header and fields, by
+        data_layout) packed by `fmt` into `buf`, all stamped `timestamp_us`. True if the sink took
+        them. The caller keeps its integers in range and its timestamps in order (no per-field
+        checks, no clamp: write_data's in_range for several topics at once); a value struct cannot
+        pack refuses all of them (counted); dropouts as for write_data."""
+        try:
+            struct.pack_into(fmt, buf, 0, *values)
+        except _PACK_ERRORS:
+            self.refused += count
+            return False
+        if self._emit_timed(buf, timestamp_us):
+            self.messages += count - 1
+            return True
+        return False
+
     def log_message(self, level, timestamp_us, text):
         """Log string `L`: level 0 (emergency) .. 7 (debug), text str or bytes."""
         raw = _to_bytes(text)
