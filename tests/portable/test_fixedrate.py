@@ -60,12 +60,6 @@ def test_the_fixed_pass_runs_where_pid_math_and_the_configuration_allow_it():
     assert _stages((("dterm_lpf1_type", "pt2"), ("mixer_type", "hexx")))[4]
 
 
-def _sync(fx, c, m):
-    """The float stages take the fixed pass's state, so one pass of each starts from the same place."""
-    fx.give_state()
-    fx.active = True
-
-
 def _walk(x, step, lim, rnd):
     x += rnd.span(step)
     if x > lim:
@@ -114,7 +108,7 @@ def _agree(sets, mode, passes=300, seed=7):
         sp.mode = mode
         i_active = rnd.unit() > 0.2
         airmode = rnd.unit() > 0.5
-        _sync(fx, c, m)
+        fx.give_state()  # the float stages take the fixed pass's state: one pass of each from the same place
         keep = array("f", sp.rate_rad_s)
         c.update(sp, s.attitude, s.gyro_rad_s, dt_us * 1e-6, i_active, m.saturated, s.torque_norm)
         m.update(sp.throttle_norm, s.torque_norm, airmode, s.motor_norm)

@@ -378,7 +378,7 @@ def _q(value, one):
 class FixedRate:
     """The controller and mixer of a flight as one fixed-point pass (see the module docstring).
 
-    `configure(controller, mixer, loop_hz, pid_math)` returns whether the fixed pass runs: it reads
+    `configure(controller, mixer, loop_hz, pid_math, signals)` returns whether the fixed pass runs: it reads
     the float stages' configured gains and filters, and takes over their state (I-terms, filters,
     last samples) so a switch mid-session starts where they were. `update()` then stands in for
     `Controller.update` plus `Mixer.update`; `release()` hands the state back to the float stages."""
@@ -388,7 +388,6 @@ class FixedRate:
         self.st = array("i", [0] * ST_SIZE)
         self.fin = array("f", [0.0] * 5)
         self.active = False
-        self.accel = HAS_ACCEL
         self._io = None
         self._controller = None
         self._mixer = None
@@ -399,10 +398,8 @@ class FixedRate:
             if pid.dterm_filter._active is pid.dterm_filter._biquad:
                 supported = False
         want = pid_math == "fixed" or (pid_math == "auto" and HAS_ACCEL)
-        if self.active and not (want and supported):
-            self.release()
         if not (want and supported):
-            self.active = False
+            self.release()
             return False
         self._controller = controller
         self._mixer = mixer
