@@ -34,6 +34,28 @@ def test_hover_under_micropython_holds_and_matches_cpython():
 
 
 @needs_mp
+def test_the_flashed_bundle_flies_as_the_sources_do(unix_bundle):
+    # `hoverfly flash`'s bundle, precompiled with NATIVE_MODULES as machine code (built for the unix VM): the
+    # native emitter makes the same calls on the same floats, so the flight is the same to the bit.
+    src = fly("angle-steps", seed=5, duration_s=6, firmware="micropython", micropython=MICROPYTHON)
+    flashed = fly("angle-steps", seed=5, duration_s=6, firmware="micropython", micropython=MICROPYTHON,
+                  bundle=str(unix_bundle))
+    for key in ("tilt_rms_deg", "max_tilt_deg", "altitude_m", "horizontal_drift_m", "steps", "events", "outputs"):
+        assert flashed[key] == src[key], key
+    assert flashed["armed"] and not flashed["crashed"] and flashed["firmware"]["crc_errors"] == 0
+
+
+@needs_mp
+def test_a_bundle_that_is_not_one_is_one_line(tmp_path, capsys):
+    code = main(["fly", "--scenario", "hover", "--firmware", "micropython", "--bundle", str(tmp_path)])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "not a hoverfly flash bundle" in err and "Traceback" not in err
+    assert main(["fly", "--scenario", "hover", "--bundle", str(tmp_path)]) == 2
+    assert "--firmware micropython" in capsys.readouterr().err
+
+
+@needs_mp
 def test_cli_flies_with_the_micropython_firmware(capsys):
     code = main(["fly", "--scenario", "hover", "--duration", "3", "--firmware", "micropython",
                  "--micropython", MICROPYTHON, "--json"])

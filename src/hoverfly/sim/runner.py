@@ -126,7 +126,7 @@ class StepMeter:
 class SimRun:
     def __init__(self, airframe="5inch", scenario="demo", seed=1, overrides=(), duration_s=None,
                  realtime=False, firmware="cpython", micropython=None, rx="crsf", esc="dshot600",
-                 log_path=None, hil=None, baud=115200):
+                 log_path=None, hil=None, baud=115200, bundle=None):
         self.airframe = load_airframe(airframe) if isinstance(airframe, str) else airframe
         self.scenario = load_scenario(scenario) if isinstance(scenario, str) else scenario
         self.seed = seed
@@ -161,10 +161,13 @@ class SimRun:
         # the physics, pilot and judging stay here.
         self.firmware = "hil" if hil else firmware
         self.firmware_stats = None
+        if bundle is not None and self.firmware != "micropython":
+            raise UserError("--bundle runs the firmware under MicroPython: add --firmware micropython")
         if self.firmware != "cpython":
             from hoverfly.sim.bridge import BridgedFlight
 
-            self.flight = BridgedFlight(self.board, self.params, self.firmware, micropython, port=hil, baud=baud)
+            self.flight = BridgedFlight(self.board, self.params, self.firmware, micropython, port=hil, baud=baud,
+                                        bundle=bundle)
         self.pilot = Pilot(self.board.channels_us, self.scenario["mode"])
         self.pilot.hover_guess = self._hover_throttle_guess()
         self.events_out = []
@@ -514,10 +517,12 @@ class SimRun:
 
 
 def fly(scenario="demo", airframe="5inch", seed=1, overrides=(), duration_s=None, realtime=False,
-        firmware="cpython", micropython=None, rx="crsf", esc="dshot600", log_path=None, hil=None, baud=115200):
-    """Fly and judge; returns the result dict. `hil`: a serial port with the firmware on a device."""
+        firmware="cpython", micropython=None, rx="crsf", esc="dshot600", log_path=None, hil=None, baud=115200,
+        bundle=None):
+    """Fly and judge; returns the result dict. `hil`: a serial port with the firmware on a device;
+    `bundle`: a `hoverfly flash --out DIR --chip unix-x64` folder the MicroPython firmware runs from."""
     run = SimRun(airframe, scenario, seed, overrides, duration_s, realtime, firmware=firmware,
-                 micropython=micropython, rx=rx, esc=esc, log_path=log_path, hil=hil, baud=baud)
+                 micropython=micropython, rx=rx, esc=esc, log_path=log_path, hil=hil, baud=baud, bundle=bundle)
     result = run.run()
     if run.log is not None:
         result["log"] = run.log.stats()
