@@ -53,6 +53,13 @@ def test_a_bundle_that_is_not_one_is_one_line(tmp_path, capsys):
     assert "not a hoverfly flash bundle" in err and "Traceback" not in err
     assert main(["fly", "--scenario", "hover", "--bundle", str(tmp_path)]) == 2
     assert "--firmware micropython" in capsys.readouterr().err
+    # a bundle built for a board holds ARM machine code this VM cannot load: named before the firmware starts
+    board = tmp_path / "rp2040"
+    assert main(["flash", "--out", str(board), "--chip", "rp2040"]) == 0
+    capsys.readouterr()
+    assert main(["fly", "--scenario", "hover", "--firmware", "micropython", "--bundle", str(board)]) == 2
+    err = capsys.readouterr().err
+    assert "--chip unix-x64" in err and "Traceback" not in err and err.count("\n") == 1
 
 
 @needs_mp

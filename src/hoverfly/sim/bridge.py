@@ -83,11 +83,17 @@ def find_micropython(path=None):
 
 
 def bundle_lib(bundle):
-    """The folder holding hoverfly/ in a `hoverfly flash --out DIR` bundle (DIR/lib)."""
+    """The folder holding hoverfly/ in a `hoverfly flash --out DIR` bundle (DIR/lib), checked to be one
+    this machine's MicroPython can load: its machine code (the header's arch, 2 = x64) is for the unix port."""
     lib = pathlib.Path(bundle) / "lib"
-    if not (lib / "hoverfly" / "boards" / "bridge_fw.mpy").is_file():
+    flight = lib / "hoverfly" / "core" / "flight.mpy"
+    if not (lib / "hoverfly" / "boards" / "bridge_fw.mpy").is_file() or not flight.is_file():
         raise UserError("--bundle %s: not a hoverfly flash bundle (build one with hoverfly flash --out %s "
                         "--chip unix-x64)" % (bundle, bundle))
+    arch = flight.read_bytes()[2:3]
+    if arch and arch[0] >> 2 not in (0, 2):
+        raise UserError("--bundle %s: built for a board's chip, not for MicroPython on this PC (build it with "
+                        "hoverfly flash --out %s --chip unix-x64)" % (bundle, bundle))
     return lib
 
 
@@ -95,8 +101,6 @@ def firmware_command(firmware, micropython=None, heap=DEFAULT_HEAP, bundle=None)
     """(argv, env) that start the bridged firmware on stdin/stdout; MicroPython runs it from the
     sources, or from a flash bundle's precompiled modules (`bundle`, built for unix-x64)."""
     env = dict(os.environ)
-    if bundle is not None and firmware != "micropython":
-        raise UserError("--bundle runs the firmware under MicroPython: add --firmware micropython")
     if firmware == "micropython":
         exe = find_micropython(micropython)
         # MICROPYPATH replaces the default path: keep .frozen (the VM's built-in modules).
