@@ -11,6 +11,7 @@ wiring run on CPython with the same fakes.
 import json
 import os
 import pathlib
+import shutil
 import subprocess
 import sys
 
@@ -72,12 +73,14 @@ print("RESULT " + json.dumps(r))
 """
 
 
-def run_board(tmp_path, body, seconds, imu="mpu6050", judge=5.0, heap="1m", usb="False", hook=""):
+def run_board(tmp_path, body, seconds, imu="mpu6050", judge=5.0, heap="1m", usb="False", hook="", lib=None):
+    """The board's main loop under MicroPython for `seconds`, from the sources (or from `lib`, a flash
+    bundle's lib/); the RESULT it printed."""
     values = {"airframe": repr(load_airframe("5inch")), "judge": judge, "imu": imu, "usb": usb,
               "storage": str(tmp_path / "params.bin"), "seconds": seconds}
     script = tmp_path / "run.py"
     script.write_text(PRELUDE % values + body + EPILOGUE % values)
-    env = dict(os.environ, MICROPYPATH="%s:%s:.frozen" % (FAKES, ROOT / "src"))
+    env = dict(os.environ, MICROPYPATH="%s:%s:.frozen" % (FAKES, lib or ROOT / "src"))
     res = subprocess.run([MICROPYTHON, "-X", "heapsize=" + heap, str(script)], capture_output=True, text=True,
                          timeout=120, env=env, cwd=str(ROOT))
     assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-3000:]
@@ -103,6 +106,23 @@ def test_rp2_main_loop_hovers_under_micropython(tmp_path):
     assert r["tilt_rms_deg"] <= 1.5
     assert 1.5 <= r["alt_m"] <= 2.5
     assert r["gc_runs"] >= 1  # collections happened, in the slack
+
+
+@needs_mp
+def test_rp2_main_loop_hovers_from_the_flash_bundle_as_from_the_sources(tmp_path, unix_bundle):
+    # the board code and the core as `hoverfly flash` ships them (precompiled, flight.py as machine code;
+    # built for the unix VM): the board's own loop, its collections in the slack included, flies the same
+    body = "world.at(2.0, arm)\nworld.at(2.5, hold(2.0))\n"
+    src = run_board(tmp_path, body, seconds=5.0, judge=4.0)
+    # the fake world's physics is the simulator's (hoverfly.sim, not in a bundle): its sources go beside the bundle's
+    lib = tmp_path / "lib"
+    shutil.copytree(unix_bundle / "lib", lib)
+    shutil.copytree(ROOT / "src" / "hoverfly" / "sim", lib / "hoverfly" / "sim")
+    flashed = run_board(tmp_path, body, seconds=5.0, judge=4.0, lib=lib)
+    assert flashed["faults"] == 0 and flashed["armed"] and flashed["spun"] and not flashed["crashed"]
+    assert flashed["gc_runs"] >= 1
+    for key in ("tilt_rms_deg", "alt_m", "passes"):
+        assert flashed[key] == src[key], key
 
 
 @needs_mp
