@@ -17,6 +17,8 @@ batches, the older figure), log_us_mean (the difference over all batches), task_
 (Logger.update timed alone, its writes included) and bytes_per_s written; on
 MicroPython also alloc_off/alloc_on, heap bytes allocated per pass without and with logging. Best
 of several runs, armed, angle mode, a CRSF frame every 4th pass.
+`--same-flight` times one logged flight instead, its logging call set and cleared batch by batch (the same
+objects and code on both sides): {runtime, method, us_per_pass_off, log_us_per_pass, log_pct}.
 """
 
 import sys
@@ -180,6 +182,27 @@ def run_pair():
     return best_off / BATCH, best_on / BATCH, median, (sum_on - sum_off) / passes, rate, alloc
 
 
+def run_same_flight():
+    """One logged flight, its logging call set and cleared batch by batch (Flight.log_pass and log_rc, as the
+    logger sets them): the same objects and code on both sides, so only the logging differs. Returns the
+    fastest unlogged batch and the median paired difference, per pass."""
+    f, board, log, t = _flight(True)
+    on_pass, on_rc = f.log_pass, f.log_rc
+    best_off = None
+    diffs = []
+    for i in range(RUNS * PASSES // BATCH):
+        if i % 8 == 0:
+            collect_garbage()
+        f.log_pass = f.log_rc = None
+        us_off, t = _batch(f, board, t)
+        f.log_pass, f.log_rc = on_pass, on_rc
+        us_on, t = _batch(f, board, t)
+        best_off = us_off if best_off is None or us_off < best_off else best_off
+        diffs.append(us_on - us_off)
+    diffs.sort()
+    return best_off / BATCH, diffs[len(diffs) // 2] / BATCH
+
+
 def task_alone():
     f, board, log, t = _flight(True)
     task = f.logger.update
@@ -199,6 +222,11 @@ def task_alone():
 
 
 def main():
+    if "--same-flight" in sys.argv:
+        off, median = run_same_flight()
+        print('{"runtime": "%s", "method": "same-flight", "us_per_pass_off": %.2f, "log_us_per_pass": %.2f, '
+              '"log_pct": %.1f}' % (sys.implementation.name, off, median, 100.0 * median / off))
+        return
     off, on, median, mean, rate, alloc = run_pair()
     collect_garbage()
     alone = task_alone()
