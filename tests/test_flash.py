@@ -7,15 +7,11 @@ import subprocess
 import pytest
 
 from hoverfly.cli import main
-from hoverfly.cli_flash import ARCH, CHIPS, NATIVE_MODULES, bundle_sources
+from hoverfly.cli_flash import ARCH, CHIPS, NATIVE_MODULES, bundle_sources, mpy_arch
+from hoverfly.cli_flash import MPY_ARCH_CODE as MPY_ARCH
 from test_micropython import MICROPYTHON, MPY_CROSS
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
-
-
-# mpy-cross writes the target architecture into a .mpy's third header byte (bits 2 and up) only when the file
-# holds machine code (native or viper); bytecode has 0 there and loads on any port.
-MPY_ARCH = {"armv6m": 4, "armv7m": 5, "x64": 2, "rv32imc": 11}
 
 
 def _modules(lib):
@@ -27,9 +23,9 @@ def _modules(lib):
         parts = ("hoverfly/" + rel)[:-3].split("/")
         if parts[-1] == "__init__":
             parts = parts[:-1]
-        head = mpy.read_bytes()[:4]
-        assert head[:2] == b"M\x06", rel
-        mods[".".join(parts)] = head[2] >> 2
+        arch = mpy_arch(mpy)
+        assert arch is not None, rel
+        mods[".".join(parts)] = arch
     return mods
 
 

@@ -37,6 +37,18 @@ CHIPS = ("rp2040", "rp2350", "rp2350-riscv")  # the boards; unix-x64 is the PC's
 # so a module is here only where its saving pays for its bytes (docs/pico.md has the table).
 NATIVE_MODULES = ("core/flight.py",)
 MAIN_PY = "from hoverfly.boards.rp2.main import main\nmain()\n"
+# mpy-cross writes the target architecture into a .mpy's third header byte (bits 2 and up) only when the
+# file holds machine code (native or viper); bytecode has 0 there and loads on any port.
+MPY_ARCH_CODE = {"armv6m": 4, "armv7m": 5, "x64": 2, "rv32imc": 11}
+
+
+def mpy_arch(path):
+    """The architecture code of a .mpy file's machine code (MPY_ARCH_CODE), 0 for bytecode only; None if
+    the file is not a version-6 .mpy."""
+    head = pathlib.Path(path).read_bytes()[:4]
+    if len(head) < 4 or head[:2] != b"M\x06":
+        return None
+    return head[2] >> 2
 
 
 def _tool(name, given):

@@ -84,14 +84,15 @@ def find_micropython(path=None):
 
 def bundle_lib(bundle):
     """The folder holding hoverfly/ in a `hoverfly flash --out DIR` bundle (DIR/lib), checked to be one
-    this machine's MicroPython can load: its machine code (the header's arch, 2 = x64) is for the unix port."""
+    this machine's MicroPython can load: its machine code, if any, is for the unix port (x64)."""
     lib = pathlib.Path(bundle) / "lib"
     flight = lib / "hoverfly" / "core" / "flight.mpy"
     if not (lib / "hoverfly" / "boards" / "bridge_fw.mpy").is_file() or not flight.is_file():
         raise UserError("--bundle %s: not a hoverfly flash bundle (build one with hoverfly flash --out %s "
                         "--chip unix-x64)" % (bundle, bundle))
-    arch = flight.read_bytes()[2:3]
-    if arch and arch[0] >> 2 not in (0, 2):
+    from hoverfly.cli_flash import MPY_ARCH_CODE, mpy_arch
+
+    if mpy_arch(flight) not in (0, MPY_ARCH_CODE["x64"]):
         raise UserError("--bundle %s: built for a board's chip, not for MicroPython on this PC (build it with "
                         "hoverfly flash --out %s --chip unix-x64)" % (bundle, bundle))
     return lib
