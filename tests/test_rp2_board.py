@@ -121,7 +121,7 @@ def test_rp2_main_loop_hovers_from_the_flash_bundle_as_from_the_sources(tmp_path
     flashed = run_board(tmp_path, body, seconds=5.0, judge=4.0, lib=lib)
     assert flashed["faults"] == 0 and flashed["armed"] and flashed["spun"] and not flashed["crashed"]
     assert flashed["gc_runs"] >= 1
-    for key in ("tilt_rms_deg", "alt_m", "passes"):
+    for key in ("tilt_rms_deg", "tilt_max_deg", "alt_m", "alt_max_m"):
         assert flashed[key] == src[key], key
 
 

@@ -38,6 +38,7 @@ import tempfile
 import time
 from struct import pack_into, unpack_from
 
+from hoverfly.cli_flash import MPY_ARCH_CODE, mpy_arch
 from hoverfly.compat import ticks_add, ticks_diff
 from hoverfly.core.autopilot import STATE_NAMES
 from hoverfly.core.events import EventLog
@@ -90,8 +91,6 @@ def bundle_lib(bundle):
     if not (lib / "hoverfly" / "boards" / "bridge_fw.mpy").is_file() or not flight.is_file():
         raise UserError("--bundle %s: not a hoverfly flash bundle (build one with hoverfly flash --out %s "
                         "--chip unix-x64)" % (bundle, bundle))
-    from hoverfly.cli_flash import MPY_ARCH_CODE, mpy_arch
-
     if mpy_arch(flight) not in (0, MPY_ARCH_CODE["x64"]):
         raise UserError("--bundle %s: built for a board's chip, not for MicroPython on this PC (build it with "
                         "hoverfly flash --out %s --chip unix-x64)" % (bundle, bundle))
