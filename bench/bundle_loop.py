@@ -18,6 +18,10 @@ gets (what its filesystem holds, and what RAM holds of a module once it is impor
 default: every portable module): {module: {ir_saved, rp2040_bytes_added}}, the instructions a pass it saves
 against the bytecode bundle and what it adds to an RP2040's bundle: the table NATIVE_MODULES was chosen from
 (docs/pico.md). About a minute a module.
+
+`--profile`: where each bundle's pass goes, by VM function: {bytecode: {ir_per_pass, functions: [[name,
+instructions a pass, % of the pass], ...]}, native: {...}}, the 15 largest (callgrind_annotate, each function's
+own instructions, the pass run less the idle run).
 """
 
 import json
@@ -57,11 +61,39 @@ def _child(mp):
     return [mp, "-X", "heapsize=8m", os.path.join(HERE, "core_instructions.py")]
 
 
+def _callgrind(cmd, env, out):
+    subprocess.run(["valgrind", "--tool=callgrind", "--callgrind-out-file=" + out] + cmd, capture_output=True,
+                   env=env, check=True)
+
+
+def _by_function(cmd, env):
+    """{function: instructions} of one callgrind run of cmd, each function's own (callgrind_annotate)."""
+    with tempfile.NamedTemporaryFile(suffix=".cg") as out:
+        _callgrind(cmd, env, out.name)
+        text = subprocess.run(["callgrind_annotate", "--inclusive=no", "--threshold=100", "--auto=no", out.name],
+                              capture_output=True, text=True, check=True).stdout
+    counts = {}
+    for line in text.splitlines():
+        m = re.match(r"\s*([\d,]+) \([\s\d.]+%\)\s+(\S+)", line)
+        if m and "PROGRAM" not in line:
+            name = m.group(2).split(":")[-1]
+            counts[name] = counts.get(name, 0) + int(m.group(1).replace(",", ""))
+    return counts
+
+
+def _profile(mp, lib, top):
+    """The pass's instructions by VM function (machine code that callgrind cannot name shows as its address)."""
+    runs = [_by_function(_child(mp) + ["--child", mode, str(PASSES)], _env(lib)) for mode in ("pass", "idle")]
+    per = {k: (runs[0].get(k, 0) - runs[1].get(k, 0)) / PASSES for k in set(runs[0]) | set(runs[1])}
+    total = sum(per.values())
+    rows = sorted(per.items(), key=lambda kv: -kv[1])[:top]
+    return {"ir_per_pass": round(total), "functions": [[k, round(v), round(100.0 * v / total, 1)] for k, v in rows]}
+
+
 def _calls(cmd, env, fn):
     """How often `fn` was called in one callgrind run of cmd."""
     with tempfile.NamedTemporaryFile(suffix=".cg") as out:
-        subprocess.run(["valgrind", "--tool=callgrind", "--callgrind-out-file=" + out.name] + cmd,
-                       capture_output=True, env=env, check=True)
+        _callgrind(cmd, env, out.name)
         names = {}
         total = 0
         target = False
@@ -123,7 +155,10 @@ def each(mp, root, modules):
 def main(argv):
     mp = find_micropython()
     with tempfile.TemporaryDirectory() as root:
-        if argv and argv[0] == "--each":
+        if argv and argv[0] == "--profile":
+            print(json.dumps({name: _profile(mp, _bundle(root, name, native)[0], 15)
+                              for name, native in (("bytecode", ()), ("native", NATIVE_MODULES))}))
+        elif argv and argv[0] == "--each":
             modules = argv[1:] or [rel for rel, _ in bundle_sources()
                                    if rel.split("/")[0] in ("core", "protocols", "drivers") or rel == "compat.py"]
             print(json.dumps(each(mp, root, modules)))
