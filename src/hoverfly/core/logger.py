@@ -665,10 +665,31 @@ class Logger:
                 lg._batch_full(now_us, t)
                 i = lg._staged
 
-        def rc_frame():
-            # input_rc for a new receiver frame (Flight.task_rx, earlier in the pass: this pass's
-            # time is t + pass_dt_us)
-            lg._stage_rc(t + f.pass_dt_us)
+        # input_rc for a new receiver frame (Flight.task_rx, earlier in the pass: this pass's time is
+        # t + pass_dt_us). From a receiver that reports its link the same pack as _stage_rc's.
+        receiver = self._receiver
+        if receiver is not None and self._rc_whole:
+            rc_stage = self._rc_stage
+            rc_n = self._rc_n
+            rc_header = self._rc_header
+            ch = self._rc_ch
+
+            def rc_frame():
+                tt = t + f.pass_dt_us
+                lq = receiver.link_quality_pct
+                if lq > 100:
+                    lq = 100
+                elif lq < 0:
+                    lq = 0
+                off = lg._rc_off
+                _pack_into(_RC_PACK, rc_stage, off, rc_header, tt, tt, lq, receiver.errors & 0xFFFF,
+                           receiver.frames & 0xFFFF, _raw(ch), _RC_CHANNELS, receiver.rx_failsafe, not f.rx_ok, 0, lq,
+                           receiver.rssi_dbm)
+                lg._rc_off = off + rc_n
+        else:
+
+            def rc_frame():
+                lg._stage_rc(t + f.pass_dt_us)
 
         def sync():
             lg._t64 = t
