@@ -52,6 +52,8 @@ from hoverfly.core.failsafe import (
     FaultWatch,
 )
 from hoverfly.core.filters import AccelFilter, GyroFilter
+from hoverfly.core.fixedimu import HAS_ACCEL as _FIXED_IMU_ACCEL
+from hoverfly.core.fixedimu import FixedImuFilter
 from hoverfly.core.fixedrate import FixedRate
 from hoverfly.core.logger import Logger
 from hoverfly.core.mixer import Mixer
@@ -82,6 +84,8 @@ class Flight:
         self.mixer = Mixer()
         self.fixed = FixedRate()  # the controller and mixer in fixed point (pid_math)
         self._fixed_on = False
+        self.fixed_imu = FixedImuFilter()  # the IMU filters in fixed point, with the fixed rate loop
+        self._fixed_imu_on = False
         self.output = OutputStage()
         self.arming = Arming(self.events)
         self.motor_test = MotorTest(self.arming)
@@ -146,6 +150,7 @@ class Flight:
         hz = self.loop_hz
         self.alignment.configure(p)
         self.calibration.configure(p, hz)
+        self.fixed_imu.release()  # the float filters hold the state while they are configured
         self.gyro_filter.configure(p, hz)
         self.accel_filter.configure(p, hz)
         self.mahony.configure(p)
@@ -158,6 +163,10 @@ class Flight:
         self.controller.configure(p, hz)
         self.mixer.configure(p)
         self._fixed_on = self.fixed.configure(self.controller, self.mixer, hz, p.get("pid_math"), self.signals)
+        # The IMU filters go with the rate loop: anywhere for "fixed", on "auto" where their viper twin loads.
+        self._fixed_imu_on = self.fixed_imu.configure(
+            self.gyro_filter, self.accel_filter, self.signals, self.calibration.bias_rad_s,
+            self._fixed_on and (p.get("pid_math") == "fixed" or _FIXED_IMU_ACCEL))
         self.motor_count = self.mixer.n
         self.arming.configure(p)
         if p.get("arm_source") == "seed001":
@@ -219,8 +228,11 @@ class Flight:
             if not self.calibration.calibrated:
                 if self.calibration.update(s.gyro_raw_rad_s):
                     self.events.record(now_us, EV_GYRO_CALIBRATED, 0)
-            self.gyro_filter.update(s.gyro_raw_rad_s, self.calibration.bias_rad_s, s.gyro_rad_s)
-            self.accel_filter.update(s.accel_raw_m_s2, s.accel_m_s2)
+            if self._fixed_imu_on:
+                self.fixed_imu.update()
+            else:
+                self.gyro_filter.update(s.gyro_raw_rad_s, self.calibration.bias_rad_s, s.gyro_rad_s)
+                self.accel_filter.update(s.accel_raw_m_s2, s.accel_m_s2)
         elif self.logger.active:  # no new sample: the log's integral_dt says so (Logger.update's full path)
             self.logger.full_pass_next()
         # 2. estimator

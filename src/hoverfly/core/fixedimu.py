@@ -1,0 +1,150 @@
+"""The IMU filters of the pass in fixed point: the gyro's PT1 and the accelerometer's PT2 as integers.
+
+Takes the float filter stages' configured gains (core/filters.py `GyroFilter`, `AccelFilter`) and
+the pass's sample arrays; gives the filtered gyro and accelerometer in the same arrays as the float
+stages, with no float object made on MicroPython. Every float result there is a heap object: the
+two filters made 39 of them a pass (1.2 kB on the 64-bit VM, bench/core_stages.py), a third of the
+pass's allocation. `FixedImuFilter` runs the filters on small integers instead: the viper twin
+(accel/imufilter.py) on MicroPython, `filter_pass` below everywhere else (the reference, and what
+tests/portable/test_fixedimu.py holds the viper twin to, bit for bit).
+
+Chosen with the fixed rate loop (core/fixedrate.py): where `pid_math` runs the controller and
+mixer in fixed point, the IMU filters go too, for the default gyro chain only (low-pass 1 a PT1,
+low-pass 2 and the notch off); any other chain keeps the float stages.
+
+Formats (value = integer / 2**q): samples and filter state Q16; the gyro and its calibration bias
+clamped to +-128 rad/s (2**23), the accelerometer to +-256 m/s^2 (2**24, 26 g); gains Q15 (a
+gain of 1, a filter that is off, is 2**15). A step is `y += floor((k * (x - y) + 2**14) / 2**15)`;
+|x - y| < 2**25, so the viper twin's product on x's 16-bit halves stays below 2**31. Inputs that
+are not numbers (NaN) read as 0, infinities as the clamp. A Q16 PT1 settles within half an LSB
+over k of its input: 1e-5 rad/s for the gyro's default 250 Hz, 2e-4 m/s^2 for the accelerometer's
+25 Hz.
+"""
+
+from array import array
+
+from hoverfly.compat import IS_MICROPYTHON, const
+
+# co: the gyro PT1's gain per axis, then the accelerometer PT2's stage gain per axis (Q15)
+CO_GYRO_K = const(0)
+CO_ACC_K = const(3)
+CO_SIZE = const(6)
+# st: the gyro PT1's output per axis, the accelerometer PT2's first stage and output per axis (Q16);
+# st[9..17] hold the viper twin's decoded inputs
+S_GYRO = const(0)
+S_ACC1 = const(3)
+S_ACC2 = const(6)
+ST_SIZE = const(18)
+
+_ONE15 = const(32768)
+_GYRO_LIM = const(0x800000)  # 2**23: 128 rad/s in Q16
+_ACC_LIM = const(0x1000000)  # 2**24: 256 m/s^2 in Q16
+_INV16 = 1.0 / 65536.0
+
+_filter_pass = None
+if IS_MICROPYTHON:
+    try:
+        from hoverfly.accel.imufilter import filter_pass as _filter_pass
+    except (SyntaxError, ImportError, NameError, ValueError):
+        _filter_pass = None
+
+HAS_ACCEL = _filter_pass is not None
+
+
+def _dec(x, lim):
+    """A float in Q16: truncated toward 0, clamped to +-lim, NaN as 0 (accel/imufilter.py's decode)."""
+    if x != x:
+        return 0
+    v = x * 65536.0
+    if v >= lim:
+        return lim
+    if v <= -lim:
+        return -lim
+    return int(v)
+
+
+def _step(k, x, y):
+    """One PT1 step in Q16 with a Q15 gain: y + floor((k * (x - y) + 2**14) / 2**15)."""
+    return y + ((k * (x - y) + 16384) >> 15)
+
+
+def filter_pass(co, st, io):
+    """One pass of both filters (the Python twin): io = (gyro raw, gyro bias, gyro out, accel raw,
+    accel out), arrays of three; the outputs are written as floats."""
+    graw, bias, gout, araw, aout = io
+    for i in range(3):
+        y = _step(co[CO_GYRO_K + i], _dec(graw[i], _GYRO_LIM) - _dec(bias[i], _GYRO_LIM), st[S_GYRO + i])
+        st[S_GYRO + i] = y
+        gout[i] = y * _INV16
+        k = co[CO_ACC_K + i]
+        s1 = _step(k, _dec(araw[i], _ACC_LIM), st[S_ACC1 + i])
+        st[S_ACC1 + i] = s1
+        y = _step(k, s1, st[S_ACC2 + i])
+        st[S_ACC2 + i] = y
+        aout[i] = y * _INV16
+
+
+if _filter_pass is None:
+    _filter_pass = filter_pass
+
+
+def _gain(k):
+    """A PT1 gain (0 < k <= 1) in Q15, rounded."""
+    g = int(k * _ONE15 + 0.5)
+    if g > _ONE15:
+        return _ONE15
+    return g if g > 0 else 0
+
+
+class FixedImuFilter:
+    """The gyro and accelerometer filters of a flight as one fixed-point pass (see the module docstring).
+
+    `configure(gyro_filter, accel_filter, signals, bias, on)` returns whether the fixed pass runs
+    (`on`, and the gyro chain is the default one): it reads the float stages' configured gains and
+    takes over their state. `update()` then stands in for `GyroFilter.update` plus
+    `AccelFilter.update`; `release()` hands the state back to the float stages."""
+
+    def __init__(self):
+        self.co = array("i", [0] * CO_SIZE)
+        self.st = array("i", [0] * ST_SIZE)
+        self.active = False
+        self._io = None
+        self._gyro = None
+        self._accel = None
+
+    def configure(self, gyro_filter, accel_filter, signals, bias, on):
+        """Call after the float stages' own configure (Flight.configure), with `release()` before it."""
+        if not (on and gyro_filter._pt1_only):
+            self.release()
+            return False
+        self.release()  # the float stages were configured (and the accelerometer's reset): start from them
+        self._gyro = gyro_filter
+        self._accel = accel_filter
+        self._io = (signals.gyro_raw_rad_s, bias, signals.gyro_rad_s, signals.accel_raw_m_s2, signals.accel_m_s2)
+        co = self.co
+        st = self.st
+        for i in range(3):
+            f = gyro_filter.lpf1[i]._pt1
+            co[CO_GYRO_K + i] = _gain(f.k)
+            st[S_GYRO + i] = _dec(f.y, _GYRO_LIM)
+            f = accel_filter.f[i]
+            co[CO_ACC_K + i] = _gain(f.k)
+            st[S_ACC1 + i] = _dec(f.s1, _ACC_LIM)
+            st[S_ACC2 + i] = _dec(f.y, _ACC_LIM)
+        self.active = True
+        return True
+
+    def release(self):
+        """Give the state back to the float stages (the fixed pass stops)."""
+        if self.active:
+            st = self.st
+            for i in range(3):
+                self._gyro.lpf1[i]._pt1.y = st[S_GYRO + i] * _INV16
+                f = self._accel.f[i]
+                f.s1 = st[S_ACC1 + i] * _INV16
+                f.y = st[S_ACC2 + i] * _INV16
+            self.active = False
+
+    def update(self):
+        """Both filters for this pass's sample (Flight.step's step 1)."""
+        _filter_pass(self.co, self.st, self._io)
