@@ -158,8 +158,11 @@ def install_stages(board, f):
     """Probes on what Flight.step calls (the slow tasks as whole calls)."""
     probe(board, "read_imu", "read_imu", 2)
     probe(f.alignment, "apply", "alignment (math)", 1)
-    probe(f.gyro_filter, "update", "gyro_filter (math)", 3)
-    probe(f.accel_filter, "update", "accel_filter (math)", 2)
+    if f._fixed_imu_on:  # with pid_math's fixed rate loop: both IMU filters as one fixed-point pass
+        probe(f.fixed_imu, "update", "fixed: gyro + accel filters", 0)
+    else:
+        probe(f.gyro_filter, "update", "gyro_filter (math)", 3)
+        probe(f.accel_filter, "update", "accel_filter (math)", 2)
     probe(f.mahony, "update", "mahony (math)", 5)
     probe(f.rc, "update", "rc.update", 1)
     probe(f, "command", "flight.command", 1)
