@@ -20,7 +20,8 @@ if sys.implementation.name == "micropython":
     for _name in ("drivers.orientation", "drivers.imu", "drivers.mpu6050", "core.params", "core.events",
                   "core.filters", "accel.imufilter", "core.fixedimu", "core.control", "core.estimator", "core.mixer",
                   "core.pid", "accel.rate", "core.fixedrate", "core.arming", "core.failsafe", "core.rc",
-                  "core.scheduler", "core.signals", "core.output", "core.receiver", "core.logger", "core.flight"):
+                  "core.scheduler", "core.signals", "accel.output", "core.output", "core.receiver", "core.logger",
+                  "core.flight"):
         gc.collect()
         try:
             __import__("hoverfly." + _name)

@@ -58,6 +58,7 @@ from hoverfly.core.fixedrate import FixedRate
 from hoverfly.core.logger import Logger
 from hoverfly.core.mixer import Mixer
 from hoverfly.core.motortest import MotorTest
+from hoverfly.core.output import HAS_ACCEL as _FIXED_OUT_ACCEL
 from hoverfly.core.output import OutputStage
 from hoverfly.core.params import FS_SWITCH_MODES, Params
 from hoverfly.core.rc import RcInput
@@ -86,6 +87,7 @@ class Flight:
         self._fixed_on = False
         self.fixed_imu = FixedImuFilter()  # the IMU filters in fixed point, with the fixed rate loop
         self._fixed_imu_on = False
+        self._fixed_out_on = False  # the output stage's motor commands in fixed point, likewise
         self.output = OutputStage()
         self.arming = Arming(self.events)
         self.motor_test = MotorTest(self.arming)
@@ -167,6 +169,7 @@ class Flight:
         self._fixed_imu_on = self.fixed_imu.configure(
             self.gyro_filter, self.accel_filter, self.signals, self.calibration.bias_rad_s,
             self._fixed_on and (p.get("pid_math") == "fixed" or _FIXED_IMU_ACCEL))
+        self._fixed_out_on = self._fixed_on and (p.get("pid_math") == "fixed" or _FIXED_OUT_ACCEL)
         self.motor_count = self.mixer.n
         self.arming.configure(p)
         if p.get("arm_source") == "seed001":
@@ -279,7 +282,10 @@ class Flight:
         out = s.motor_out
         n = self.motor_count
         output = self.output
-        output.update(s.motor_norm, armed, out)
+        if self._fixed_out_on:
+            output.update_fixed(s.motor_norm, armed, out)
+        else:
+            output.update(s.motor_norm, armed, out)
         test = self.motor_test
         test.update(now_us, armed, self.rc.arm_switch, self.rx_ok, out)
         # SAFETY: last word on the motors, after every stage: no mode, scenario or protocol

@@ -19,12 +19,15 @@ Step 6 of the pass, in two halves on either side of `board.write_motors`:
   the protocol's minimum pulse, servo centre) until commands resume.
 
 Portable: runs on the Pico (MicroPython) and in the simulator. Nothing here allocates per pass
-except float results.
+except float results. With the fixed rate loop (`pid_math`, core/fixedrate.py) the motor commands
+are worked out in fixed point instead (`OutputStage.update_fixed`, `motors_fixed`): the demand
+truncated to Q16, idle + span * demand in Q16 with the span Q14, so a command is within 2**-14 of
+the float stage's (a DShot step is 5e-4); its viper twin (accel/output.py) makes no float at all.
 """
 
 from array import array
 
-from hoverfly.compat import ticks_diff
+from hoverfly.compat import IS_MICROPYTHON, ticks_diff
 from hoverfly.core.mixer import MAX_MOTORS
 from hoverfly.core.params import row
 from hoverfly.protocols import analog
@@ -45,6 +48,39 @@ PROTOCOLS = row("motor_protocol")[4]
 _DSHOT_KBIT = (150, 300, 600, 1200)
 _ANALOG = (analog.ONESHOT125, analog.ONESHOT42, analog.MULTISHOT, analog.PWM)
 MAX_SERVOS = 4
+_INV16 = 1.0 / 65536.0
+
+_motors_fixed = None
+if IS_MICROPYTHON:
+    try:
+        from hoverfly.accel.output import motors_fixed as _motors_fixed
+    except (SyntaxError, ImportError, NameError, ValueError):
+        _motors_fixed = None
+
+HAS_ACCEL = _motors_fixed is not None
+
+
+def motors_fixed(norm, out, n, idle, span):
+    """out[i] = idle + span * clamp(norm[i], 0, 1) in fixed point (idle Q16, span Q14, the demand
+    truncated to Q16); returns how many demands were clamped (outside 0..1 or NaN). The Python
+    twin of accel/output.py."""
+    clamped = 0
+    for i in range(n):
+        m = norm[i]
+        if m > 1.0:
+            v = 65536
+            clamped += 1
+        elif not (m >= 0.0):
+            v = 0
+            clamped += 1
+        else:
+            v = int(m * 65536.0)
+        out[i] = (idle + ((span * v + 8192) >> 14)) * _INV16
+    return clamped
+
+
+if _motors_fixed is None:
+    _motors_fixed = motors_fixed
 
 
 def protocol_index(name):
@@ -101,6 +137,8 @@ class OutputStage:
         self.idle = 0.055
         self.motor_max = 1.0
         self._span = 1.0 - 0.055
+        self._idle_q16 = 3604
+        self._span_q14 = 15483
         self.clamped = 0  # motor demand outside 0..1 or NaN
         self.bidir = False
         self.error = ""  # a configuration the board's encoder will also refuse (e.g. motor_order)
@@ -116,6 +154,8 @@ class OutputStage:
         if self.motor_max < self.idle:
             self.motor_max = self.idle
         self._span = self.motor_max - self.idle  # once here, not a float per pass
+        self._idle_q16 = int(self.idle * 65536.0 + 0.5)  # update_fixed's
+        self._span_q14 = int(self._span * 16384.0 + 0.5)
         self.bidir = dshot_speed_kbit(params.get("motor_protocol")) > 0 and params.get("dshot_bidir") == 1
         poles = params.get("motor_poles")
         for d in self.decoders:
@@ -140,6 +180,16 @@ class OutputStage:
                 m = 0.0
                 self.clamped += 1
             motor_out[i] = idle + span * m
+
+    def update_fixed(self, motor_norm, armed, motor_out):
+        """`update` in fixed point (with the fixed rate loop): the same clamps and counts, commands
+        within 2**-14 of update's, no float made where the viper twin runs."""
+        n = self.motor_count
+        if not armed:
+            for i in range(n):
+                motor_out[i] = 0.0
+            return
+        self.clamped += _motors_fixed(motor_norm, motor_out, n, self._idle_q16, self._span_q14)
 
     def servos(self, servo_in, count, armed, servo_out):
         """Servo positions -1..1 (clamped, counted); centre while disarmed."""

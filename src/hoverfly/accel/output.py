@@ -1,0 +1,63 @@
+"""Viper twin of core/output.py's `motors_fixed` (MicroPython only; chosen at import by core/output.py).
+
+The same integer arithmetic as the Python `motors_fixed`, which stays the reference and the
+fallback; tests/portable/test_output_fixed.py runs both on the same inputs and wants every output
+bit and the clamp count equal. As in accel/rate.py, floats are read and written as their float32
+bits (`ptr32` on the "f" arrays), so no float object is made:
+
+- The clamps are decided on the bits: NaN, and anything negative but -0.0, is the floor (counted);
+  anything above 1.0 (0x3F800000), +inf included, is 1.0 (counted), as `OutputStage.update`'s
+  float comparisons decide them.
+- A demand in 0..1 is truncated to Q16; the command is idle + (span * demand + 2**13) >> 14 in
+  Q16 (span Q14, so the product stays under 2**31 on a 32-bit port), written as the float32 bits
+  of command / 2**16: at most 2**17, so exact, as an array store of that value is.
+"""
+
+# ptr32/int are viper's built-in casts: they exist only inside @micropython.viper code.
+# ruff: noqa: F821
+
+import micropython
+
+
+@micropython.viper
+def motors_fixed(norm_a, out_a, n: int, idle: int, span: int) -> int:
+    norm = ptr32(norm_a)
+    out = ptr32(out_a)
+    one = 1
+    low31 = (one << 31) - 1  # 0x7FFFFFFF and 0x7F800000 (+inf): no constant of 2**30 or more, which is
+    inf = ((one << 8) - 1) << 23  # not a small int on a 32-bit port
+    clamped = 0
+    i = 0
+    while i < n:
+        b = norm[i]
+        mag = b & low31
+        v = 0
+        if mag > inf:  # NaN
+            clamped += 1
+        elif (b >> 31) & 1:
+            if mag != 0:  # below 0 (-0.0 is 0)
+                clamped += 1
+        elif mag > 0x3F800000:  # above 1.0
+            v = 65536
+            clamped += 1
+        else:
+            e = (mag >> 23) & 0xFF
+            if e != 0:
+                m = (mag & 0x7FFFFF) | 0x800000
+                sh = e - 150 + 16
+                if sh >= 0:
+                    v = m << sh
+                elif sh > -24:
+                    v = m >> (0 - sh)
+        c = idle + ((span * v + 8192) >> 14)  # at most 2**17: exact in float32
+        bits = 0
+        if c > 0:
+            pw = 0
+            tt = c
+            while tt > 1:
+                tt = tt >> 1
+                pw += 1
+            bits = ((pw - 16 + 127) << 23) | ((c << (23 - pw)) & 0x7FFFFF)
+        out[i] = bits
+        i += 1
+    return clamped

@@ -1,0 +1,119 @@
+"""The output stage's motor commands in fixed point (core/output.py `motors_fixed`, with the fixed rate
+loop) against the float stage, and their viper twin (accel/output.py).
+
+Portable: under MicroPython (tests/portable/mprun.py) the viper twin must be the one chosen and must
+give the Python twin's bits and clamp counts; on both runtimes the fixed commands must be within
+2**-14 of `OutputStage.update`'s and count the same clamps.
+"""
+
+from array import array
+
+from test_fixedrate import Lcg  # the same deterministic numbers on every port
+
+from hoverfly.compat import IS_MICROPYTHON
+from hoverfly.core import output as output_mod
+from hoverfly.core.output import OutputStage
+from hoverfly.core.params import Params
+
+if IS_MICROPYTHON:
+    from hoverfly.accel import output as output_viper
+else:
+    output_viper = None
+
+_ODD = (float("nan"), float("inf"), -float("inf"), 1e30, -1e30, -0.0, 0.0, 1e-40, -1e-40, 1.0, 1.0000001,
+        0.9999999, 2.0 ** -17, -(2.0 ** -16), 0.5, 1.5)
+
+
+def _stage(sets=()):
+    p = Params()
+    for name, value in sets:
+        p.set(name, value)
+    st = OutputStage()
+    st.configure(p, 8)
+    return st
+
+
+def _demands(rnd, n, a, b=None):
+    for k in range(8):
+        v = rnd.unit() * 1.2 - 0.1
+        if n % 3 == 2 and rnd.unit() < 0.5:
+            v = _ODD[int(rnd.unit() * len(_ODD))]
+        a[k] = v
+        if b is not None:
+            b[k] = v
+
+
+def test_the_fixed_commands_agree_with_the_float_stage():
+    for sets in ((), (("motor_idle_pct", 0.0), ("motor_max_pct", 50.0)), (("motor_idle_pct", 20.0),)):
+        a = _stage(sets)
+        b = _stage(sets)
+        norm = array("f", [0.0] * 8)
+        want = array("f", [0.0] * 8)
+        got = array("f", [0.0] * 8)
+        rnd = Lcg(17)
+        worst = 0.0
+        for n in range(400):
+            _demands(rnd, n, norm)
+            a.update(norm, True, want)
+            b.update_fixed(norm, True, got)
+            for k in range(8):
+                worst = max(worst, abs(want[k] - got[k]))
+        assert worst < 2.0 ** -14, (sets, worst)  # the Q14 span, the Q16 demand and idle; a DShot step is 5e-4
+        assert a.clamped == b.clamped and a.clamped > 100, (a.clamped, b.clamped)
+        b.update_fixed(norm, False, got)  # disarmed: stop, whatever the demand
+        assert list(got) == [0.0] * 8
+
+
+def test_the_viper_twin_gives_the_python_twins_bits():
+    if not IS_MICROPYTHON:
+        assert output_mod._motors_fixed is output_mod.motors_fixed  # no viper: the Python twin runs
+        return
+    assert output_mod._motors_fixed is output_viper.motors_fixed
+    for sets in ((), (("motor_idle_pct", 0.0), ("motor_max_pct", 50.0)), (("motor_idle_pct", 20.0),)):
+        st = _stage(sets)
+        na, nb = array("f", [0.0] * 8), array("f", [0.0] * 8)
+        oa, ob = array("f", [0.0] * 8), array("f", [0.0] * 8)
+        rnd = Lcg(23)
+        for n in range(1500):
+            _demands(rnd, n, na, nb)
+            ca = output_mod.motors_fixed(na, oa, 8, st._idle_q16, st._span_q14)
+            cb = output_viper.motors_fixed(nb, ob, 8, st._idle_q16, st._span_q14)
+            assert ca == cb, (sets, n, ca, cb)
+            for k in range(8):
+                assert oa[k] == ob[k], (sets, n, k, na[k], oa[k], ob[k])
+
+
+def test_fixed_commands_allocate_nothing_on_micropython():
+    if not IS_MICROPYTHON:
+        return
+    import gc
+
+    st = _stage()
+    norm = array("f", [0.3, 0.5, 0.7, 1.2, -0.1, 0.0, 1.0, 0.25])
+    out = array("f", [0.0] * 8)
+    st.update_fixed(norm, True, out)
+    gc.collect()
+    gc.disable()
+    try:
+        a0 = gc.mem_alloc()
+        for _ in range(50):
+            st.update_fixed(norm, True, out)
+        used = gc.mem_alloc() - a0
+    finally:
+        gc.enable()
+    assert used == 0, used
+
+
+def test_a_flight_takes_the_fixed_commands_with_the_fixed_rate_loop():
+    from configfakes import FakeBoard
+
+    from hoverfly.core.flight import Flight
+
+    f = Flight(FakeBoard())
+    f.params.set("pid_math", "fixed")
+    f.start(1000)
+    assert f._fixed_out_on
+    f.params.set("pid_math", "float")
+    f.configure()
+    assert not f._fixed_out_on
+    assert output_mod.HAS_ACCEL == IS_MICROPYTHON
