@@ -227,4 +227,4 @@ def test_bit_names_failing_checks_and_storage_blocks():
     b.storage_ok = False
     b.update(False, True, True, True, False)
     assert b.names() == ["imu", "storage", "calibration"]
-    assert b.flags & (1 << BIT_STORAGE) and b.blocks_arming
+    assert b.flags & (1 << BIT_STORAGE) and b.blocks_arming()

@@ -145,5 +145,5 @@ def test_silent_autopilot_loses_privilege_and_never_holds_its_command():
     ap.update(120 + 199000, True)
     assert ap.state == AP_ENABLED
     ap.update(120 + 201000, True)
-    assert ap.state == AP_SILENT and not ap.in_control and ap.latch_norm == 0.5
+    assert ap.state == AP_SILENT and not ap.in_control() and ap.latch_norm == 0.5
     assert ap.on_msp_rc(400000, _msp(1500, arm=True), 8, arming) is not None  # no silent take-back

@@ -97,7 +97,7 @@ def test_pid_p_term_uses_betaflight_scale():
     pid.configure(p, "roll", 1000, "pidsum_limit")
     out = pid.update(100 * DEG, 0.0, 0.001, 1.0, False, False)
     # Betaflight: P 45 x 0.032029 x 100 deg/s = 144 PID-sum units of 1000
-    assert abs(pid.p - 45 * 0.032029 * 100 / 1000.0) < 1e-4
+    assert abs(pid.p() - 45 * 0.032029 * 100 / 1000.0) < 1e-4
     assert out > 0
 
 
@@ -133,9 +133,9 @@ def test_d_term_is_on_measurement_so_a_setpoint_step_does_not_kick_it():
     pid.configure(p, "roll", 1000, "pidsum_limit")
     pid.update(0.0, 0.0, 0.001, 1.0, False, False)
     pid.update(300 * DEG, 0.0, 0.001, 1.0, False, False)
-    assert pid.d == 0.0
+    assert pid.d() == 0.0
     pid.update(300 * DEG, 50 * DEG, 0.001, 1.0, False, False)
-    assert pid.d < 0.0  # opposes the gyro's movement
+    assert pid.d() < 0.0  # opposes the gyro's movement
 
 
 def test_angle_mode_turns_angle_error_into_a_rate_setpoint():

@@ -325,26 +325,26 @@ def test_bno055_configure_goes_through_config_mode_to_fusion():
 def test_wrong_who_am_i_fails_configure_with_wrong_id():
     model, bus, drv = _mpu(who_am_i=0x70)
     assert not drv.configure()
-    assert drv.status_name == "wrong_id" and drv.who_am_i == 0x70
+    assert drv.status_name() == "wrong_id" and drv.who_am_i == 0x70
     assert model.writes == []
     lsm = LSM9DS1(FakeI2C(LSM9DS1AGModel(who_am_i=0x69)), Orientation(), delay_us=_no_wait)
-    assert not lsm.configure() and lsm.status_name == "wrong_id"
+    assert not lsm.configure() and lsm.status_name() == "wrong_id"
     bno = BNO055(FakeI2C(BNO055Model(chip_id=0xA1)), Orientation(), delay_us=_no_wait)
-    assert not bno.configure() and bno.status_name == "wrong_id"
+    assert not bno.configure() and bno.status_name() == "wrong_id"
     icm = ICM42688(ICM42688Model(who_am_i=0x98), Orientation(), delay_us=_no_wait)
-    assert not icm.configure() and icm.status_name == "wrong_id"
+    assert not icm.configure() and icm.status_name() == "wrong_id"
 
 
 def test_absent_chip_is_reported_not_raised():
     model, bus, drv = _mpu()
     model.absent = True
-    assert not drv.probe() and drv.status_name == "absent" and drv.bus_errors == 1
+    assert not drv.probe() and drv.status_name() == "absent" and drv.bus_errors == 1
     empty = MPU6050(FakeI2C(), Orientation(), delay_us=_no_wait)
-    assert not empty.configure() and empty.status_name == "absent"
+    assert not empty.configure() and empty.status_name() == "absent"
     icm_model = ICM42688Model()
     icm_model.absent = True  # SPI: nobody drives MISO, it reads 0xFF
     icm = ICM42688(icm_model, Orientation(), delay_us=_no_wait)
-    assert not icm.configure() and icm.status_name == "absent"
+    assert not icm.configure() and icm.status_name() == "absent"
 
 
 def test_lsm9ds1_without_magnetometer_still_configures():
@@ -410,7 +410,7 @@ def test_configure_bus_error_reports_bus_error_status():
 
     model.write = failing_write
     assert not drv.configure()
-    assert drv.status_name == "bus_error"
+    assert drv.status_name() == "bus_error"
     model.write = orig
 
 

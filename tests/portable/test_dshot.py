@@ -193,7 +193,7 @@ def test_queue_refuses_values_outside_1_to_47_and_while_armed():
         assert r is not True and "1..47" in r
     r = q.push(12, True)
     assert r is not True and "armed" in r
-    assert q.refused == 5 and not q.busy
+    assert q.refused == 5 and not q.busy()
 
 
 def _run(q, start_us, step_us, frames, armed=False, throttle=0x0000):
@@ -215,7 +215,7 @@ def test_queue_repeats_a_settings_command_ten_times_1ms_apart_then_throttle():
     assert len(sent) == 10 and sent[0] == 0
     assert all(sent[i + 1] - sent[i] == 1000 for i in range(9))
     assert all(w == 0 for t, w in frames if t > sent[-1])
-    assert not q.busy and q.sent == 10
+    assert not q.busy() and q.sent == 10
 
 
 def test_queue_waits_after_a_beep_before_the_next_command():
@@ -234,7 +234,7 @@ def test_arming_drops_queued_commands():
     q.push(dshot.CMD_BEEP2, False)
     assert q.word(T0, False, 0) == dshot_frame(12, 1)
     assert q.word(ticks_add(T0, 2000), True, 0x1234) == 0x1234
-    assert q.aborted == 1 and not q.busy
+    assert q.aborted == 1 and not q.busy()
     assert q.word(ticks_add(T0, 4000), False, 0) == 0
 
 

@@ -167,8 +167,8 @@ def test_rate_pid_equals_the_plain_formula_for_every_option():
                 r_out, r_p, r_d, r_f = ref.update(sp, gyro, dt, tpa, i_active, sat)
                 assert out == r_out, (kw, axis, k)
                 # the terms as kept for the log and telemetry: float32 (the controller's array)
-                assert pid.i == ref.i and pid.p == _f32(r_p) and pid.f == _f32(r_f), (kw, axis, k)
-                assert pid.d == _f32(r_d) or (pid.d == 0.0 and r_d == 0.0), (kw, axis, k)
+                assert pid.i == ref.i and pid.p() == _f32(r_p) and pid.f() == _f32(r_f), (kw, axis, k)
+                assert pid.d() == _f32(r_d) or (pid.d() == 0.0 and r_d == 0.0), (kw, axis, k)
 
 
 def _mahony_ref(est, bias, q, gyro, accel, dt_s, armed):

@@ -46,7 +46,7 @@ def _drain_boot_commands(enc, now_us):
     for _ in range(400):
         enc.write(stop, enc.motor_count, now_us)
         now_us = ticks_add(now_us, 1000)
-    assert not enc.commands.busy
+    assert not enc.commands.busy()
     return now_us
 
 
@@ -228,13 +228,13 @@ def test_boot_turns_3d_off_and_sets_spin_direction_of_reversed_motors():
 def test_no_spin_commands_when_no_motor_is_reversed_and_none_for_analog():
     seen = _commands_seen(_encoder(), T0)
     assert set(v for _, v in seen) == {CMD_3D_MODE_OFF}
-    assert _encoder(motor_protocol="pwm", motor_reversed=1).commands.busy is False
+    assert _encoder(motor_protocol="pwm", motor_reversed=1).commands.busy() is False
 
 
 def test_a_spinning_motor_drops_the_boot_commands():
     enc = _encoder(motor_reversed=1)
     enc.write(array("f", [0.2, 0.0, 0.0, 0.0]), 4, T0)
-    assert not enc.commands.busy and enc.commands.aborted == 1
+    assert not enc.commands.busy() and enc.commands.aborted == 1
     assert frame_value(enc.words[0]) > 47
 
 

@@ -263,7 +263,6 @@ class Autopilot:
             self.soft = 0
             self.events.record(now_us, EV_AUTOPILOT_DISABLED, DIS_TIMEOUT)
 
-    @property
     def in_control(self):
         return self.state == AP_ENABLED and self.has_frame
 

@@ -59,7 +59,6 @@ class BuiltInTest:
         self.runs += 1
         return f
 
-    @property
     def blocks_arming(self):
         return (self.flags & BLOCKING) != 0
 

@@ -96,7 +96,6 @@ class Failsafe:
         self.throttle_norm = (params.get("fs_throttle") - 1000) * 0.001
         self.land_m_s = params.get("fs_land_m_s")
 
-    @property
     def active(self):
         return self.state != IDLE
 

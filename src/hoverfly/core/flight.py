@@ -438,7 +438,7 @@ class Flight:
             more |= 1 << MOTOR_TEST
         if not battery_ok:
             more |= 1 << BATTERY_CRITICAL
-        if bit.blocks_arming:
+        if bit.blocks_arming():
             more |= 1 << BIT_FAILED
         if fs.state != IDLE:
             more |= 1 << FAILSAFE

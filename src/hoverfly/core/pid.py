@@ -74,15 +74,12 @@ class AxisPid:
         self._dt_s = 0.0
         self._inv_dt = 0.0
 
-    @property
     def p(self):
         return self.terms[self.k]
 
-    @property
     def d(self):
         return self.terms[self.k + 6]
 
-    @property
     def f(self):
         return self.terms[self.k + 9]
 

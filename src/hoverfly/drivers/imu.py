@@ -131,11 +131,9 @@ class Imu:
         self._gyro_k16 = 0.0  # rad/s per 1/16 LSB
         self._accel_k = 0.0  # m/s² per LSB
 
-    @property
     def status_name(self):
         return STATUS_NAMES[self.status]
 
-    @property
     def healthy(self):
         return self.status == STATUS_OK and not self.frozen
 

@@ -259,10 +259,10 @@ def replay(log, overrides=()):
         for a in range(3):
             pid = pids[a]
             col = cols_pid[a]
-            col[0][k] = pid.p
+            col[0][k] = pid.p()
             col[1][k] = pid.i
-            col[2][k] = pid.d
-            col[3][k] = pid.f
+            col[2][k] = pid.d()
+            col[3][k] = pid.f()
             col[4][k] = s.torque_norm[a]
             cols_sp[a][k] = s.setpoint.rate_rad_s[a]
             cols_g[a][k] = s.gyro_rad_s[a]

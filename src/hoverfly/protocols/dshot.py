@@ -445,7 +445,6 @@ class DshotCommandQueue:
         self.sent = 0  # command frames handed out
         self.last_error = ""
 
-    @property
     def busy(self):
         return self._state != _IDLE or self._count > 0
 
@@ -469,7 +468,7 @@ class DshotCommandQueue:
         return True
 
     def clear(self):
-        if self.busy:
+        if self.busy():
             self.aborted += 1
         self._count = 0
         self._state = _IDLE

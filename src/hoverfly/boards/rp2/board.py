@@ -273,7 +273,7 @@ class Rp2Board(Board):
             self.faults |= FAULT_IMU_ABSENT
             return
         if not ok:
-            what = imu.status_name if imu is not None else "absent"
+            what = imu.status_name() if imu is not None else "absent"
             self.imu_status = "%s %s on %s" % (kind, what, self._imu_where())
             self.faults |= FAULT_IMU_ABSENT
             self.imu = None
