@@ -171,7 +171,10 @@ def install_stages(board, f):
     else:
         probe(f.controller, "update", "controller (math)", 7)
         probe(f.mixer, "update", "mixer", 4)
-    probe(f.output, "update", "output.update", 3)
+    if f._fixed_out_on:  # with the fixed rate loop: the motor commands in fixed point
+        probe(f.output, "update_fixed", "fixed: motor commands", 3)
+    else:
+        probe(f.output, "update", "output.update", 3)
     probe(f.motor_test, "update", "motor_test", 5)
     probe(board, "write_motors", "write_motors", 2)
     probe(f.scheduler, "pass_started", "scheduler.pass_started", 1)
