@@ -21,3 +21,19 @@ def params(**kw):
     for k, v in kw.items():
         p.set(k, v)
     return p
+
+
+def heap_bytes(fn, times):
+    """Heap bytes `times` calls of fn() allocate, the collector off (MicroPython's gc.mem_alloc;
+    0 on CPython, which has no such count)."""
+    from hoverfly.compat import collect_garbage, disable_gc, enable_gc, mem_alloc
+
+    collect_garbage()
+    disable_gc()
+    try:
+        a0 = mem_alloc()
+        for _ in range(times):
+            fn()
+        return mem_alloc() - a0
+    finally:
+        enable_gc()

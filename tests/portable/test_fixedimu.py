@@ -8,6 +8,7 @@ runtimes the fixed pass must agree with the float filters it stands in for, pass
 
 from array import array
 
+from fastpathkit import heap_bytes
 from test_fixedrate import Lcg  # the same deterministic numbers on every port
 
 from hoverfly.compat import IS_MICROPYTHON
@@ -162,20 +163,10 @@ def test_the_viper_twin_gives_the_python_twins_bits():
 def test_a_fixed_filter_pass_allocates_nothing_on_micropython():
     if not IS_MICROPYTHON:
         return
-    import gc
-
     s, g, a, bias, fx, on = _stages(())
     _sample(Lcg(5), 0, s)
     fx.update()
-    gc.collect()
-    gc.disable()
-    try:
-        a0 = gc.mem_alloc()
-        for _ in range(50):
-            fx.update()
-        used = gc.mem_alloc() - a0
-    finally:
-        gc.enable()
+    used = heap_bytes(fx.update, 50)
     assert used == 0, used
 
 

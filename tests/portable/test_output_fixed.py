@@ -8,6 +8,7 @@ give the Python twin's bits and clamp counts; on both runtimes the fixed command
 
 from array import array
 
+from fastpathkit import heap_bytes
 from test_fixedrate import Lcg  # the same deterministic numbers on every port
 
 from hoverfly.compat import IS_MICROPYTHON
@@ -86,21 +87,11 @@ def test_the_viper_twin_gives_the_python_twins_bits():
 def test_fixed_commands_allocate_nothing_on_micropython():
     if not IS_MICROPYTHON:
         return
-    import gc
-
     st = _stage()
     norm = array("f", [0.3, 0.5, 0.7, 1.2, -0.1, 0.0, 1.0, 0.25])
     out = array("f", [0.0] * 8)
     st.update_fixed(norm, True, out)
-    gc.collect()
-    gc.disable()
-    try:
-        a0 = gc.mem_alloc()
-        for _ in range(50):
-            st.update_fixed(norm, True, out)
-        used = gc.mem_alloc() - a0
-    finally:
-        gc.enable()
+    used = heap_bytes(lambda: st.update_fixed(norm, True, out), 50)
     assert used == 0, used
 
 
