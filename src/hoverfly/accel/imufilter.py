@@ -5,8 +5,10 @@ and the fallback; tests/portable/test_fixedimu.py runs both on the same inputs a
 output bit equal. As in accel/rate.py:
 
 - Floats are read and written as their float32 bits (`ptr32` on the "f" arrays): the decode
-  truncates toward zero and clamps as `fixedimu._dec`; the encode rounds to nearest, ties to even,
-  as an array store of `y / 2**16` does. No float object is made.
+  truncates toward zero and clamps as `fixedimu._dec`; the encode needs no rounding, since every
+  state word is within 2**24 (a PT1 step never passes its input, and the inputs are clamped
+  there), which float32 holds exactly, as an array store of `y / 2**16` does. No float object is
+  made.
 - The product `k * (x - y)` is done on the difference's 16-bit halves: with k <= 2**15 and
   |x - y| < 2**25 no partial product passes 2**31 (viper ints are 32-bit machine words on the
   RP2040/RP2350; 64-bit on the unix VM).
@@ -109,18 +111,8 @@ def filter_pass(co_a, st_a, io):
             while tt > 1:
                 tt = tt >> 1
                 pw += 1
-            if pw > 23:
-                kk = pw - 23
-                mm = a >> kk
-                rem = a - (mm << kk)
-                half = one << (kk - 1)
-                if rem > half:
-                    mm += 1
-                elif rem == half and (mm & 1):
-                    mm += 1
-                if mm >= 0x1000000:
-                    mm = mm >> 1
-                    pw += 1
+            if pw > 23:  # |v| <= 2**24 (the state's bound): only 2**24 itself, exact
+                mm = a >> (pw - 23)
             else:
                 mm = a << (23 - pw)
             bits = sgn | ((pw - 16 + 127) << 23) | (mm & 0x7FFFFF)

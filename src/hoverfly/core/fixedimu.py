@@ -114,10 +114,9 @@ class FixedImuFilter:
 
     def configure(self, gyro_filter, accel_filter, signals, bias, on):
         """Call after the float stages' own configure (Flight.configure), with `release()` before it."""
-        if not (on and gyro_filter._pt1_only):
-            self.release()
-            return False
         self.release()  # the float stages were configured (and the accelerometer's reset): start from them
+        if not (on and gyro_filter._pt1_only):
+            return False
         self._gyro = gyro_filter
         self._accel = accel_filter
         self._io = (signals.gyro_raw_rad_s, bias, signals.gyro_rad_s, signals.accel_raw_m_s2, signals.accel_m_s2)
