@@ -24,7 +24,7 @@ import sys
 
 # The flight bench/core_loop.py times whole (importing it also compiles the core leaves first on
 # MicroPython, collecting in between; both runtimes put the script's folder on sys.path).
-from core_loop import armed_flight
+from core_loop import armed_flight, timed_passes
 from hoverfly.compat import (
     IS_MICROPYTHON,
     collect_garbage,
@@ -134,26 +134,6 @@ def _clear():
         CALLS[i] = 0
 
 
-def _passes(board, f, t, passes):
-    """passes timed steps, one at a time with the GC off; (µs, bytes) totals and the clock."""
-    us = 0
-    nbytes = 0
-    for _ in range(passes):
-        collect_garbage()
-        disable_gc()
-        a0 = mem_alloc()
-        t0 = ticks_us()
-        t += 1000
-        board.t = t
-        f.step(t)
-        t1 = ticks_us()
-        a1 = mem_alloc()
-        enable_gc()
-        us += ticks_diff(t1, t0)
-        nbytes += a1 - a0
-    return us, nbytes, t
-
-
 def install_stages(board, f):
     """Probes on what Flight.step calls (the slow tasks as whole calls)."""
     probe(board, "read_imu", "read_imu", 2)
@@ -210,7 +190,7 @@ def install_nested(board, f):
 def _measure(board, f, t, passes, runs, probe_us, probe_b, best):
     for _ in range(runs):
         _clear()
-        _, _, t = _passes(board, f, t, passes)
+        _, _, _, t = timed_passes(board, f, t, passes)
         for i in range(len(NAMES)):
             if CALLS[i]:
                 per_us = US[i] / CALLS[i] - probe_us
@@ -227,7 +207,7 @@ def main():
     step_us = None
     step_bytes = 0
     for _ in range(runs):
-        us, nbytes, t = _passes(board, f, t, passes)
+        us, nbytes, _, t = timed_passes(board, f, t, passes)
         if step_us is None or us < step_us:
             step_us = us
             step_bytes = nbytes
@@ -237,8 +217,9 @@ def main():
     best_probe = None
     for _ in range(runs):
         _clear()
-        for _ in range(passes):
-            collect_garbage()
+        for k in range(passes):
+            if k % 16 == 0:
+                collect_garbage()
             disable_gc()
             noop.f(1, 2, 3)
             enable_gc()
