@@ -94,7 +94,7 @@ def _rc_inputs():
 def test_rc_update_equals_running_every_filter_every_pass():
     for kw in ({}, {"rc_smoothing_hz": 0}, {"rc_smoothing_hz": 150, "roll_expo": 40, "angle_limit": 45}):
         rc = RcInput()
-        p = _params(**kw)
+        p = _params(pid_math="float", **kw)  # the float stage (test_rc_fixed.py: the fixed one)
         rc.configure(p, 1000)
         ref = _RcRef(rc, p)
         sp = Setpoint()
@@ -119,13 +119,13 @@ def test_rc_update_equals_running_every_filter_every_pass():
 
 def test_rc_update_follows_a_new_configuration_and_a_reset():
     rc = RcInput()
-    rc.configure(_params(), 1000)
+    rc.configure(_params(pid_math="float"), 1000)
     sp = Setpoint()
     sp_ref = Setpoint()
     for _ in range(800):  # settle on a held stick
         rc.stick_raw[0] = 0.4
         rc.update(sp)
-    p = _params(angle_limit=30, roll_srate=90, rc_smoothing_hz=80)
+    p = _params(angle_limit=30, roll_srate=90, rc_smoothing_hz=80, pid_math="float")
     rc.configure(p, 1000)
     ref = _RcRef(rc, p)
     for _ in range(50):

@@ -9,17 +9,168 @@ seed 001's alpha-beta; throttle_norm is the raw stick or, with thr_mode = bands,
 001's DESCEND/HOVERING/CLIMB value for the stick's third) and turns them into the
 setpoint: rates through the "actual" curve, angles through angle_limit. Stage 3 of the
 pass, with the commander choosing whose input it is.
+
+In fixed point (with the PT2, where `pid_math` runs the rate loop in fixed point: "auto" on
+MicroPython where the viper twin accel/rc.py loads, "fixed" anywhere) `update` runs `rc_pass`
+below on integers: each float result is a heap object on MicroPython, and the float smoothing and
+curves made 12 of them a pass with one stick moving. The frame's sticks and throttle go in as Q20
+(new_frame rounds the same µs arithmetic), the PT2 runs on Q20 states with the float stage's gain in
+Q15, the curve on the stick in Q16 and gives Q16 rad/s; the angle and throttle floats are made only
+when their value changed.
+tests/portable/test_rc_fixed.py holds it to the float stage within a stated bound.
 """
 
 import math
+from array import array
 
+from hoverfly.compat import IS_MICROPYTHON, const
 from hoverfly.core.control import MODE_ACRO, MODE_ANGLE, MODE_HORIZON
 from hoverfly.core.filters import AlphaBeta, Pt1, Pt2
 from hoverfly.core.rates import ActualRates
 
 _DEG = math.pi / 180.0
+_INV16 = 1.0 / 65536.0
+_INV20 = 1.0 / 1048576.0
+_ONE = const(65536)  # 1.0 in Q16
+_ONE20 = const(0x100000)  # 1.0 in Q20
+
+# rc_pass's coefficients (array "i"): the PT2 stage gain (Q15), then per axis (roll, pitch, yaw) the
+# curve's centre rate and travel (Q16 rad/s, below 2**22: 2550 deg/s is 2.9e6) and expo (Q16, 0..1)
+CO_K = const(0)
+CO_C = const(1)
+CO_T = const(4)
+CO_E = const(7)
+CO_SIZE = const(10)
+# its state (array "i"): the inputs (roll, pitch, yaw -2**20..2**20, throttle 0..2**20), the PT2s'
+# first stages and outputs, all Q20
+S_X = const(0)
+S_S1 = const(4)
+S_Y = const(8)
+ST_SIZE = const(12)
+
+_rc_pass = None
+if IS_MICROPYTHON:
+    try:
+        from hoverfly.accel.rc import rc_pass as _rc_pass
+    except (SyntaxError, ImportError, NameError, ValueError):
+        _rc_pass = None
+
+HAS_ACCEL = _rc_pass is not None
+
+
+def _step(k, x, y):
+    """One PT1 step with a Q15 gain: y + floor((k * (x - y) + 2**14) / 2**15), at least one LSB towards
+    x (a fixed PT1 would otherwise stop short of its input: a centred stick must give 0). The product on
+    the difference's 16-bit halves (|x - y| <= 2**21, k <= 2**15: every part below 2**31)."""
+    d = x - y
+    if d == 0:
+        return y
+    p = (k * (d >> 16) << 1) + ((k * (d & 0xFFFF) + 16384) >> 15)
+    if p == 0:
+        p = 1 if d > 0 else -1
+    return y + p
+
+
+def _mul16(x, y):
+    """floor(x * y / 2**16) for 0 <= x, y <= 2**16, on y's bytes (parts below 2**25)."""
+    t = x * (y >> 8)
+    return (t >> 8) + ((((t & 255) << 8) + x * (y & 255)) >> 16)
+
+
+def _mul_rate(a, c):
+    """floor(a * c / 2**16) for 0 <= a <= 2**16, 0 <= c < 2**22, on c's 11-bit halves (parts below 2**28)."""
+    t = a * (c >> 11)
+    return (t >> 5) + ((((t & 31) << 11) + a * (c & 0x7FF)) >> 16)
+
+
+def rc_pass(co, st, stick, rate):
+    """One pass of the stick shaping in fixed point (the Python twin of accel/rc.py): the four PT2s
+    (roll, pitch, yaw, throttle) on st's Q20 inputs, the smoothed sticks into stick[0..2] and their
+    rates through the "actual" curve into rate[0..2] (floats). Returns which outputs changed: bit i
+    for st[S_Y + i]. A PT2 sitting on its input is not run. Bounds: inputs within +-2**20, so the
+    states are (a step never passes its input); the curve takes a = |stick| in Q16, rounded, <= 2**16,
+    so a2, a4, a6 and the curve are <= 2**16; the rate is below centre + travel < 2**23."""
+    k = co[CO_K]
+    changed = 0
+    for i in range(4):
+        x = st[S_X + i]
+        s1 = st[S_S1 + i]
+        y = st[S_Y + i]
+        if s1 != x or y != x:
+            s1 = _step(k, x, s1)
+            st[S_S1 + i] = s1
+            y1 = _step(k, s1, y)
+            if y1 != y:
+                y = y1
+                st[S_Y + i] = y
+                changed |= 1 << i
+        if i < 3:
+            a = ((-y if y < 0 else y) + 8) >> 4
+            a2 = _mul16(a, a)
+            e = co[CO_E + i]
+            if e == 0:
+                curve = a2
+            else:
+                # a * (a**5 * e + a * (1 - e)), as ActualRates.rate_rad_s (Betaflight's actual rates)
+                a6 = _mul16(_mul16(a2, a2), a2)
+                curve = _mul16(a6, e) + _mul16(a2, _ONE - e)
+            r = _mul_rate(a, co[CO_C + i]) + _mul_rate(curve, co[CO_T + i])
+            stick[i] = y * _INV20
+            rate[i] = (-r if y < 0 else r) * _INV16
+    return changed
+
+
+if _rc_pass is None:
+    _rc_pass = rc_pass
+
+
+def _q(x, scale, lo, hi):
+    """A float in fixed point (x * scale), rounded, clamped to lo..hi; NaN as 0."""
+    if not (x == x):
+        return 0
+    v = x * scale
+    if v >= hi:
+        return hi
+    if v <= lo:
+        return lo
+    return int(v + 0.5) if v >= 0 else -int(0.5 - v)
+
+
+def _stick_q(us, deadband):
+    """RcInput._stick in Q20, rounded: the same µs arithmetic, an integer division."""
+    d = us - 1500
+    if d > deadband:
+        d -= deadband
+    elif d < -deadband:
+        d += deadband
+    else:
+        return 0
+    den = 500 - deadband
+    a = d if d > 0 else -d
+    if a >= den:
+        q = _ONE20
+    else:
+        q = (a * 0x200000 + den) // (2 * den)  # a < 500: below 2**30
+    return q if d > 0 else -q
+
+
+def _throttle_q(t):
+    """The throttle stick's (t - 1000) * 0.001, clamped to 0..1, in Q20, rounded."""
+    if t <= 1000:
+        return 0
+    if t >= 2000:
+        return _ONE20
+    return ((t - 1000) * 0x100000 + 500) // 1000  # below 2**30
 
 _MAPS = {"AETR": (0, 1, 3, 2), "TAER": (1, 2, 3, 0), "RETA": (3, 2, 1, 0)}  # roll, pitch, yaw, throttle
+
+
+def _gain(k):
+    """A PT1 gain (0 < k <= 1) in Q15, rounded."""
+    g = int(k * 32768 + 0.5)
+    if g > 32768:
+        return 32768
+    return g if g > 0 else 0
 
 
 def _in_range(channels_us, ch, lo, hi):
@@ -66,8 +217,21 @@ class RcInput:
         self._out = [0.0, 0.0, 0.0, 0.0]
         self._rate_rad_s = [0.0, 0.0, 0.0]
         self._angle_rad = [0.0, 0.0]
+        # The fixed-point stick shaping (rc_pass; see the module docstring): its coefficients and state,
+        # and the floats it last made for the angles and the throttle (remade only when they change).
+        self.fixed = False
+        self._co = array("i", [0] * CO_SIZE)
+        self._st = array("i", [0] * ST_SIZE)
+        self._angle_per_q = 0.0
+        self._roll_angle_rad = 0.0
+        self._pitch_angle_rad = 0.0
+        self._throttle_norm = 0.0
+        # new_frame: the µs each stick (roll, pitch, yaw, throttle) read last; a stick that did not move
+        # keeps its float (-1: none yet, or the configuration changed)
+        self._last_us = array("i", [-1, -1, -1, -1])
 
     def configure(self, params, loop_hz):
+        self._set_fixed(False)  # the float filters hold the state while they are configured
         rc = (("roll_rc_rate", "roll_srate", "roll_expo"), ("pitch_rc_rate", "pitch_srate", "pitch_expo"),
               ("yaw_rc_rate", "yaw_srate", "yaw_expo"))
         for axis in range(3):
@@ -102,12 +266,51 @@ class RcInput:
         self._airmode = (params.get("airmode_ch"), params.get("airmode_min_us"), params.get("airmode_max_us"))
         self.airmode_box = self._airmode[0] > 0
         self._fs_switch = (params.get("fs_switch_ch"), params.get("fs_switch_min_us"), params.get("fs_switch_max_us"))
+        math_kind = params.get("pid_math")
+        self._set_fixed(kind == "pt2" and (math_kind == "fixed" or (math_kind == "auto" and HAS_ACCEL)))
         self._forget()
 
     def _forget(self):
-        """Drop update()'s reused results (the filters, curves or angle limit changed)."""
+        """Drop update()'s and new_frame()'s reused results (the filters, curves, limits or deadbands changed)."""
         for i in range(4):
             self._still[i] = False
+            self._last_us[i] = -1
+        if self.fixed:
+            self._refresh()
+
+    def _set_fixed(self, on):
+        """Run update() in fixed point (on) or float: the coefficients from the configured float stages,
+        the state handed over between the PT2 filters and rc_pass's state words."""
+        st = self._st
+        f = self.filters
+        if on:
+            co = self._co
+            co[CO_K] = _gain(f[0].k)
+            for axis in range(3):
+                r = self.rates[axis]
+                co[CO_C + axis] = _q(r.centre_rad_s, 65536.0, 0, 0x3FFFFF)
+                co[CO_T + axis] = _q(r.travel_rad_s, 65536.0, 0, 0x3FFFFF)
+                co[CO_E + axis] = _q(r.expo, 65536.0, 0, _ONE)
+            self._angle_per_q = self.angle_limit_rad * _INV20
+            if not self.fixed:  # take over from the float filters
+                raw = self.stick_raw
+                for i in range(4):
+                    lo = 0 if i == 3 else -_ONE20
+                    st[S_X + i] = _q(raw[i] if i < 3 else self.throttle_raw, 1048576.0, lo, _ONE20)
+                    st[S_S1 + i] = _q(f[i].s1, 1048576.0, lo, _ONE20)
+                    st[S_Y + i] = _q(f[i].y, 1048576.0, lo, _ONE20)
+        elif self.fixed:  # hand back
+            for i in range(4):
+                f[i].s1 = st[S_S1 + i] * _INV20
+                f[i].y = st[S_Y + i] * _INV20
+        self.fixed = on
+
+    def _refresh(self):
+        """The angle and throttle floats from rc_pass's outputs (after they changed other than by a pass)."""
+        st = self._st
+        self._roll_angle_rad = st[S_Y] * self._angle_per_q
+        self._pitch_angle_rad = st[S_Y + 1] * self._angle_per_q
+        self._throttle_norm = st[S_Y + 3] * _INV20
 
     def set_arm_range(self, ch, min_us, max_us):
         """Arm when channel `ch` (1-based, 0 = never) reads min_us <= µs < max_us. configure()
@@ -137,18 +340,41 @@ class RcInput:
 
     def new_frame(self, channels_us):
         """Take one receiver frame (µs per channel)."""
-        self.stick_raw[0] = self._stick(channels_us[self.roll_ch], self.deadband_us)
-        # Pitch stick forward (more µs) means nose down: negative pitch in FRD.
-        self.stick_raw[1] = -self._stick(channels_us[self.pitch_ch], self.deadband_us)
-        self.stick_raw[2] = self._stick(channels_us[self.yaw_ch], self.yaw_deadband_us)
+        # A stick whose µs did not change keeps its value: no float is made for it.
+        last = self._last_us
+        fixed = self.fixed
+        st = self._st
+        us = channels_us[self.roll_ch]
+        if us != last[0]:
+            last[0] = us
+            self.stick_raw[0] = self._stick(us, self.deadband_us)
+            if fixed:
+                st[S_X] = _stick_q(us, self.deadband_us)
+        us = channels_us[self.pitch_ch]
+        if us != last[1]:
+            last[1] = us
+            # Pitch stick forward (more µs) means nose down: negative pitch in FRD.
+            self.stick_raw[1] = -self._stick(us, self.deadband_us)
+            if fixed:
+                st[S_X + 1] = -_stick_q(us, self.deadband_us)
+        us = channels_us[self.yaw_ch]
+        if us != last[2]:
+            last[2] = us
+            self.stick_raw[2] = self._stick(us, self.yaw_deadband_us)
+            if fixed:
+                st[S_X + 2] = _stick_q(us, self.yaw_deadband_us)
         t = channels_us[self.throttle_ch]
         self.throttle_us = t
-        b = self._thr_bands
-        if b is not None:
-            # Seed 001: the stick's third (1000-1332, 1333-1665, 1666-2000 µs) picks a stored value.
-            t = b[0] if t < 1333 else (b[1] if t < 1666 else b[2])
-        thr = (t - 1000) * 0.001
-        self.throttle_raw = 0.0 if thr < 0.0 else (1.0 if thr > 1.0 else thr)
+        if t != last[3]:
+            last[3] = t
+            b = self._thr_bands
+            if b is not None:
+                # Seed 001: the stick's third (1000-1332, 1333-1665, 1666-2000 µs) picks a stored value.
+                t = b[0] if t < 1333 else (b[1] if t < 1666 else b[2])
+            thr = (t - 1000) * 0.001
+            self.throttle_raw = 0.0 if thr < 0.0 else (1.0 if thr > 1.0 else thr)
+            if fixed:
+                st[S_X + 3] = _throttle_q(t)
         # The mode ranges: _in_range() inline (four calls a frame otherwise).
         n = len(channels_us)
         ch, lo, hi = self._arm
@@ -170,10 +396,28 @@ class RcInput:
         for axis in range(3):
             self.filters[axis].reset(self.stick_raw[axis])
         self.filters[3].reset(self.throttle_raw)
+        if self.fixed:
+            st = self._st
+            for i in range(4):
+                st[S_S1 + i] = st[S_Y + i] = st[S_X + i]
         self._forget()
 
     def update(self, sp):
         """Smooth the latest frame into the setpoint (every pass)."""
+        if self.fixed:
+            changed = _rc_pass(self._co, self._st, sp.stick_norm, sp.rate_rad_s)
+            if changed:
+                st = self._st
+                if changed & 1:
+                    self._roll_angle_rad = st[S_Y] * self._angle_per_q
+                if changed & 2:
+                    self._pitch_angle_rad = st[S_Y + 1] * self._angle_per_q
+                if changed & 8:
+                    self._throttle_norm = st[S_Y + 3] * _INV20
+            sp.roll_angle_rad = self._roll_angle_rad
+            sp.pitch_angle_rad = self._pitch_angle_rad
+            sp.throttle_norm = self._throttle_norm
+            return
         f = self.filters
         if self._smooth_type != "pt2":
             s = sp.stick_norm
