@@ -107,15 +107,35 @@ class GyroCalibration:
         return False
 
 
+# Attitude.angles: roll_rad, pitch_rad, yaw_rad, cos_tilt
+ROLL = 0
+PITCH = 1
+YAW = 2
+COS_TILT = 3
+
+
 class Attitude:
-    """The estimate every stage reads: quaternion body->NED and Euler angles in radians."""
+    """The estimate every stage reads: quaternion body->NED and Euler angles in radians.
+
+    The angles are both attributes and the array `angles` (ROLL, PITCH, YAW, COS_TILT): the fixed-point
+    estimator (core/fixedatt.py) writes the array without making a float object, and the attributes
+    from it when asked (`set_from_angles`)."""
 
     def __init__(self):
         self.q = array("f", [1.0, 0.0, 0.0, 0.0])
+        self.angles = array("f", [0.0, 0.0, 0.0, 1.0])
         self.roll_rad = 0.0
         self.pitch_rad = 0.0
         self.yaw_rad = 0.0
         self.cos_tilt = 1.0  # cosine of the angle between body z and down
+
+    def set_from_angles(self):
+        """The attributes from `angles` (after the fixed-point estimator wrote it)."""
+        a = self.angles
+        self.roll_rad = a[0]
+        self.pitch_rad = a[1]
+        self.yaw_rad = a[2]
+        self.cos_tilt = a[3]
 
     def set_from_quaternion(self):
         q = self.q
@@ -134,6 +154,11 @@ class Attitude:
         self.pitch_rad = math.asin(s)
         self.yaw_rad = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
         self.cos_tilt = c
+        a = self.angles
+        a[0] = self.roll_rad
+        a[1] = self.pitch_rad
+        a[2] = self.yaw_rad
+        a[3] = c
 
 
 class Mahony:

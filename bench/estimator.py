@@ -1,0 +1,121 @@
+"""What one attitude update costs: the float Mahony (core/estimator.py) against the fixed-point one
+(core/fixedatt.py: the viper twin on MicroPython, the Python twin elsewhere).
+
+Both run the same 250 Hz update on the same turning, vibrating samples (a quarter of the calls
+trusted less, or not at all, as in a manoeuvre), armed, with the bias integral on. `float` is one
+`Mahony.update` call (its Euler angles included); `fixed` is one `FixedAttitude.step` that updates
+(every = 1), with and without the float attributes it can set (`angle_floats`), and `fixed_sum` a
+step that only adds the gyro into the average (the three passes in four between updates at 1 kHz).
+Rounds alternate between the variants; each figure is the best of ROUNDS. Bytes are a call's heap
+allocation (gc.mem_alloc, the collector off; 0 on CPython, which has no such count).
+
+Prints one JSON object {runtime, calls, us_per_call: {...}, bytes_per_call: {...}}.
+
+    MICROPYPATH=src .venv/bin/micropython -X heapsize=1m bench/estimator.py
+    .venv/bin/python bench/estimator.py
+"""
+
+import sys
+from array import array
+
+from hoverfly.compat import collect_garbage, disable_gc, enable_gc, mem_alloc, ticks_diff, ticks_us
+from hoverfly.core import fixedatt
+from hoverfly.core.estimator import Attitude, Mahony
+from hoverfly.core.params import Params
+
+CALLS = 100  # with the collector off: 100 float calls make about 390 kB
+ROUNDS = 15
+N = 64  # distinct samples, cycled
+
+
+class _Signals:
+    def __init__(self):
+        self.gyro_rad_s = array("f", [0.0, 0.0, 0.0])
+        self.accel_m_s2 = array("f", [0.0, 0.0, -9.80665])
+
+
+def _samples():
+    g = []
+    a = []
+    s = 12345
+    for n in range(N):
+        row = []
+        for _ in range(6):
+            s = (s * 1103515245 + 12345) & 0x7FFFFFFF
+            row.append(((s >> 7) / 16777216.0) * 2.0 - 1.0)
+        g.append(array("f", [2.0 * row[0], 1.5 * row[1], 0.5 * row[2]]))
+        lift = 1.0 if n % 4 else 1.5 + (n % 8) * 0.02  # every fourth: 0.5 g off (untrusted) or near 0.1
+        a.append(array("f", [row[3], row[4], -9.80665 * lift + row[5]]))
+    return g, a
+
+
+def _stages():
+    p = Params()
+    p.set("imu_dcm_ki", 100)
+    m = Mahony()
+    m.configure(p)
+    att = Attitude()
+    s = _Signals()
+    return m, att, s
+
+
+def main():
+    gs, acs = _samples()
+    m_f, att_f, s_f = _stages()
+    m_x, att_x, s_x = _stages()
+    fx = fixedatt.FixedAttitude()
+    fx.configure(m_x, att_x, s_x, 250, 1, True)
+    m_s, att_s, s_s = _stages()
+    fs = fixedatt.FixedAttitude()
+    fs.configure(m_s, att_s, s_s, 1000, 1 << 7, True)  # the sum only (it never gets to the update)
+
+    # one io tuple per sample (the samples' own arrays): a step reads them without a float made here
+    ios = [(gs[k], acs[k], att_x.q, att_x.angles, m_x.bias_rad_s) for k in range(N)]
+    ios_sum = [(gs[k], acs[k], att_s.q, att_s.angles, m_s.bias_rad_s) for k in range(N)]
+
+    def run_float(n):
+        m_f.update(gs[n % N], acs[n % N], 0.004, True, att_f)
+
+    def run_fixed(n):
+        fx._io = ios[n % N]
+        fx.step(4000, True)
+
+    def run_sum(n):
+        fs._io = ios_sum[n % N]
+        fs.st[fixedatt.S_N] = 0
+        fs.step(1000, True)
+
+    def run_none(n):  # the loop and the look-ups alone
+        fs._io = ios_sum[n % N]
+        return gs[n % N]
+
+    variants = (("float", run_float, None), ("fixed", run_fixed, False), ("fixed_floats", run_fixed, True),
+                ("fixed_sum", run_sum, None), ("loop", run_none, None))
+    best = {}
+    nbytes = {}
+    for _ in range(ROUNDS):
+        for name, fn, floats in variants:
+            if floats is not None:
+                fx.angle_floats = floats
+            collect_garbage()
+            disable_gc()
+            a0 = mem_alloc()
+            t0 = ticks_us()
+            for n in range(CALLS):
+                fn(n)
+            t = ticks_diff(ticks_us(), t0)
+            b = mem_alloc() - a0
+            enable_gc()
+            if name not in best or t < best[name]:
+                best[name] = t
+                nbytes[name] = b
+    loop = best["loop"]
+    names = ("float", "fixed", "fixed_floats", "fixed_sum")
+    print('{"runtime": "%s", "calls": %d, "fixed_is_viper": %s, "us_per_call": {%s}, "bytes_per_call": {%s}}' % (
+        sys.implementation.name, CALLS, "true" if fixedatt.HAS_ACCEL else "false",
+        ", ".join('"%s": %.2f' % (k, (best[k] - loop) / CALLS) for k in names),
+        ", ".join('"%s": %.1f' % (k, (nbytes[k] - nbytes["loop"]) / CALLS) for k in names)))
+
+
+if __name__ == "__main__":
+    main()
