@@ -7,10 +7,14 @@ instructions a pass executes does not, so this is the figure to compare two vers
 Each runtime flies bench/core_loop.py's armed flight (armed_flight(): an MPU-6050 burst through the
 driver, a CRSF frame every 4th pass, DShot words) and then either steps it PASSES times or only
 advances its clock as often; the difference of the two runs' instruction counts, divided by
-PASSES, is one pass. The collector is off for the counted passes (MicroPython gets an 8 MB heap for
-their garbage), as bench/core_loop.py keeps it off inside the timed pass: allocation is counted,
-collection is not. Prints one JSON object: {passes, micropython: {ir_per_pass}, cpython:
-{ir_per_pass}} (a runtime that is missing is left out with the reason).
+PASSES, is one pass. Garbage is collected as the rp2 main loop collects it (boards/rp2/main.run;
+bench/core_loop.py's timed_passes): once half of what the last collection freed is used up, with the
+heap bench/core_loop.py runs in (384 KB). The collections themselves (callgrind's inclusive count of
+gc_collect) are taken out of both runs: a pass is counted with the allocator working on the heap a board
+keeps, collection not. (Until 2026-12 the collector was off for all the counted passes, so the allocator's
+free-block search grew with 300 passes of garbage and dominated small differences.) Prints one JSON
+object: {passes, micropython: {ir_per_pass}, cpython: {ir_per_pass}} (a runtime that is missing is left
+out with the reason).
 """
 
 import sys
@@ -19,30 +23,39 @@ PASSES = 300
 
 
 def _child(mode, passes):
-    from core_loop import armed_flight
-    from hoverfly.compat import collect_garbage, disable_gc
+    from core_loop import GC_FREE_FRACTION, armed_flight
+    from hoverfly.compat import collect_garbage, mem_free
 
     board, f, t = armed_flight()
     collect_garbage()
-    disable_gc()
-    if mode == "pass":
-        for _ in range(passes):
-            t += 1000
-            board.t = t
+    free_min = mem_free() // GC_FREE_FRACTION
+    step = mode == "pass"
+    for _ in range(passes):
+        if mem_free() < free_min:
+            collect_garbage()
+            free_min = mem_free() // GC_FREE_FRACTION
+        t += 1000
+        board.t = t
+        if step:
             f.step(t)
-    else:
-        for _ in range(passes):
-            t += 1000
-            board.t = t
 
 
 def _count(cmd, env):
+    """Instructions `cmd` executes under callgrind, less its garbage collections (gc_collect, inclusive)."""
+    import os
     import re
     import subprocess
+    import tempfile
 
-    out = subprocess.run(["valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null"] + cmd,
-                         capture_output=True, text=True, env=env, check=True).stderr
-    return int(re.search(r"I\s+refs:\s+([\d,]+)", out).group(1).replace(",", ""))
+    with tempfile.TemporaryDirectory() as tmp:
+        out_file = os.path.join(tmp, "callgrind.out")
+        subprocess.run(["valgrind", "--tool=callgrind", "--callgrind-out-file=" + out_file] + cmd,
+                       capture_output=True, text=True, env=env, check=True)
+        report = subprocess.run(["callgrind_annotate", "--inclusive=yes", "--threshold=100", out_file],
+                                capture_output=True, text=True, check=True).stdout
+    total = int(re.search(r"([\d,]+)\s+\(100\.0%\)\s+PROGRAM TOTALS", report).group(1).replace(",", ""))
+    collect = re.search(r"^\s*([\d,]+)\s.*:gc_collect \[", report, re.M)
+    return total - (int(collect.group(1).replace(",", "")) if collect else 0)
 
 
 def ir_per_pass(cmd, env, passes=PASSES):
@@ -74,7 +87,7 @@ def main():
         result["micropython"] = {"error": "no micropython VM"}
     else:
         env = dict(os.environ, MICROPYPATH="%s:%s" % (os.path.join(root, "src"), here))
-        runtimes.insert(0, ("micropython", [mp, "-X", "heapsize=8m", me], env))
+        runtimes.insert(0, ("micropython", [mp, "-X", "heapsize=384k", me], env))
     for name, cmd, env in runtimes:
         result[name] = {"ir_per_pass": ir_per_pass(cmd, env)}
     print(json.dumps(result))
