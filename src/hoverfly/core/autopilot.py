@@ -273,38 +273,48 @@ class Autopilot:
     def apply(self, now_us, sp, pilot_stick_raw, pilot_throttle_raw):
         """Stage 3: sp holds the pilot's smoothed sticks; make it the autopilot's where it flies.
         Returns True when sp was changed (the caller refills rates and angles)."""
+        # Every pass: the common case (no autopilot flying, no latch) returns from here. The work is in
+        # methods of their own so this one's frame stays on the C stack on MicroPython (no heap frame).
         if self.state == AP_ENABLED and self.has_frame:
-            s = sp.stick_norm
-            a = self.stick_norm
-            soft = 0
-            lim = self.override_norm
-            p = pilot_stick_raw[0]
-            if p > lim or p < -lim:
-                soft |= _SOFT_ROLL  # the pilot's roll stays in sp
-            else:
-                s[0] = a[0]
-            p = pilot_stick_raw[1]
-            if p > lim or p < -lim:
-                soft |= _SOFT_PITCH
-            else:
-                s[1] = a[1]
-            s[2] = a[2]
-            thr = self.throttle_norm
-            if sp.throttle_norm < thr:
-                thr = sp.throttle_norm  # the pilot's throttle stick is a ceiling
-                soft |= _SOFT_THROTTLE
-            sp.throttle_norm = thr
-            if soft != self.soft:
-                self._soft_events(now_us, soft)
+            self._fly(now_us, sp, pilot_stick_raw)
             return True
-        latch = self.latch_norm
-        if latch >= 0.0:
-            if pilot_throttle_raw <= latch:
-                self.latch_norm = -1.0
-                self.events.record(now_us, EV_AUTOPILOT_OVERRIDE, OVR_LATCH_RELEASED)
-            elif sp.throttle_norm > latch:
-                sp.throttle_norm = latch
+        if self.latch_norm >= 0.0:
+            self._hold_latch(now_us, sp, pilot_throttle_raw)
         return False
+
+    def _fly(self, now_us, sp, pilot_stick_raw):
+        """The autopilot's sticks and throttle into sp, less what the pilot overrides (soft override)."""
+        s = sp.stick_norm
+        a = self.stick_norm
+        soft = 0
+        lim = self.override_norm
+        p = pilot_stick_raw[0]
+        if p > lim or p < -lim:
+            soft |= _SOFT_ROLL  # the pilot's roll stays in sp
+        else:
+            s[0] = a[0]
+        p = pilot_stick_raw[1]
+        if p > lim or p < -lim:
+            soft |= _SOFT_PITCH
+        else:
+            s[1] = a[1]
+        s[2] = a[2]
+        thr = self.throttle_norm
+        if sp.throttle_norm < thr:
+            thr = sp.throttle_norm  # the pilot's throttle stick is a ceiling
+            soft |= _SOFT_THROTTLE
+        sp.throttle_norm = thr
+        if soft != self.soft:
+            self._soft_events(now_us, soft)
+
+    def _hold_latch(self, now_us, sp, pilot_throttle_raw):
+        """After a hard override: the throttle held at the autopilot's last until the pilot's stick comes down to it."""
+        latch = self.latch_norm
+        if pilot_throttle_raw <= latch:
+            self.latch_norm = -1.0
+            self.events.record(now_us, EV_AUTOPILOT_OVERRIDE, OVR_LATCH_RELEASED)
+        elif sp.throttle_norm > latch:
+            sp.throttle_norm = latch
 
     def _soft_events(self, now_us, soft):
         new = soft & ~self.soft

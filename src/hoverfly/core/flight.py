@@ -226,8 +226,9 @@ class Flight:
         # 1. IMU and filters
         if board.read_imu(s.gyro_raw_rad_s, s.accel_raw_m_s2):
             self.imu_us = now_us
-            self.alignment.apply(s.gyro_raw_rad_s)
-            self.alignment.apply(s.accel_raw_m_s2)
+            if not self.alignment.identity:  # a board mounted square (the usual case) needs no rotation
+                self.alignment.apply(s.gyro_raw_rad_s)
+                self.alignment.apply(s.accel_raw_m_s2)
             if not self.calibration.calibrated:
                 if self.calibration.update(s.gyro_raw_rad_s):
                     self.events.record(now_us, EV_GYRO_CALIBRATED, 0)
