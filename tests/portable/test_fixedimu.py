@@ -140,24 +140,46 @@ def test_the_state_stays_inside_the_32_bit_bounds_on_extreme_inputs():
 
 def test_the_viper_twin_gives_the_python_twins_bits():
     if not IS_MICROPYTHON:
-        assert fixedimu._filter_pass is fixedimu.filter_pass  # no viper: the Python twin runs
+        assert fixedimu.FixedImuFilter.update is fixedimu.update_python  # no viper: the Python twin runs
         return
-    assert fixedimu._filter_pass is imu_viper.filter_pass
+    assert fixedimu.FixedImuFilter.update is imu_viper.update
     for sets in ((), (("gyro_lpf1_hz", 0), ("acc_lpf_hz", 500)), (("gyro_lpf1_hz", 30), ("acc_lpf_hz", 2))):
-        s, g, a, bias, fx, on = _stages(sets)
-        ia, ib = _io(), _io()
-        sta = array("i", fx.st)
-        stb = array("i", fx.st)
+        # two filters, each on its own signals: the Python twin's update on one, the viper twin's on the other
+        sa, g, a, bias_a, fa, on = _stages(sets)
+        sb, g, a, bias_b, fb, on = _stages(sets)
+        fb.st[0] = fa.st[0] = 5  # a state that is not the float stages': both start from it
         rnd = Lcg(11)
         for n in range(1500):
-            _odd_inputs(rnd, n, ((ia[0], ib[0]), (ia[1], ib[1]), (ia[3], ib[3])))
-            fixedimu.filter_pass(fx.co, sta, ia)
-            imu_viper.filter_pass(fx.co, stb, ib)
+            _odd_inputs(rnd, n, ((sa.gyro_raw_rad_s, sb.gyro_raw_rad_s), (bias_a, bias_b),
+                                 (sa.accel_raw_m_s2, sb.accel_raw_m_s2)))
+            fixedimu.update_python(fa)
+            fb.update()
             for k in range(9):
-                assert sta[k] == stb[k], (sets, n, "st", k, sta[k], stb[k])
-            for arr in (2, 4):
+                assert fa.st[k] == fb.st[k], (sets, n, "st", k, fa.st[k], fb.st[k])
+            for k in range(3):
+                assert sa.gyro_rad_s[k] == sb.gyro_rad_s[k], (sets, n, "gyro", k, sa.gyro_rad_s[k], sb.gyro_rad_s[k])
+                assert sa.accel_m_s2[k] == sb.accel_m_s2[k], (sets, n, "acc", k, sa.accel_m_s2[k], sb.accel_m_s2[k])
+
+
+def test_the_viper_twin_encodes_every_power_of_two_and_its_neighbours():
+    # the encode's exponent comes from a byte table: every bit length of a state word, both signs
+    if not IS_MICROPYTHON:
+        return
+    sa, g, a, bias, fa, on = _stages((("gyro_lpf1_hz", 0), ("acc_lpf_hz", 0)))  # gains of one: out = in
+    sb, g, a, bias_b, fb, on = _stages((("gyro_lpf1_hz", 0), ("acc_lpf_hz", 0)))
+    for p in range(0, 25):
+        for d in (-1, 0, 1):
+            for sign in (1.0, -1.0):
+                v = sign * ((1 << p) + d) / 65536.0
                 for k in range(3):
-                    assert ia[arr][k] == ib[arr][k], (sets, n, arr, k, ia[arr][k], ib[arr][k])
+                    sa.gyro_raw_rad_s[k] = sb.gyro_raw_rad_s[k] = v
+                    sa.accel_raw_m_s2[k] = sb.accel_raw_m_s2[k] = v
+                    bias[k] = bias_b[k] = 0.0
+                fixedimu.update_python(fa)
+                fb.update()
+                for k in range(3):
+                    assert sa.gyro_rad_s[k] == sb.gyro_rad_s[k], (p, d, sign, sa.gyro_rad_s[k], sb.gyro_rad_s[k])
+                    assert sa.accel_m_s2[k] == sb.accel_m_s2[k], (p, d, sign, sa.accel_m_s2[k], sb.accel_m_s2[k])
 
 
 def test_a_fixed_filter_pass_allocates_nothing_on_micropython():

@@ -189,56 +189,71 @@ def test_the_state_goes_back_to_the_float_stages_when_the_fixed_pass_stops():
         assert abs(want[k] - s.torque_norm[k]) < 2e-4, (k, want[k], s.torque_norm[k])
 
 
-def _io():
-    return (array("f", [0.0] * 5), array("f", [0.0] * 3), array("f", [0.0] * 3), array("f", [0.0] * 3),
-            array("f", [0.0] * 12), array("f", [0.0] * 3), array("f", [0.0] * 8))
-
-
 _ODD = (float("nan"), float("inf"), -float("inf"), 1e30, -1e30, -0.0, 1e-40, 127.99, -128.5, 4.5, -3.9999,
         1.0000001, 0.9999999, 2.0 ** -17, -(2.0 ** -16))
 
 
 def test_the_viper_twin_gives_the_python_twins_bits():
     if not IS_MICROPYTHON:
-        assert fixedrate._rate_pass is fixedrate.rate_pass  # no viper: the Python twin runs
+        assert fixedrate.FixedRate.update is fixedrate.update_python  # no viper: the Python twin runs
         return
-    assert fixedrate._rate_pass is rate_viper.rate_pass
+    assert fixedrate.FixedRate.update is rate_viper.update
     configs = ((("iterm_relax", "off"),),
                (("dterm_lpf1_type", "pt2"), ("tpa_mode", "pd"), ("ff_static_pct", 50.0), ("mixer_type", "hexx"),
-                ("iterm_relax", "rpy"), ("tpa_breakpoint", 1999)))
+                ("iterm_relax", "rpy"), ("tpa_breakpoint", 1999)),
+               # zero gains: the viper twin skips their products
+               (("p_pitch", 0), ("i_roll", 0), ("d_roll", 0), ("f_yaw", 0), ("angle_ff", 0), ("angle_p_gain", 0),
+                ("tpa_rate", 0)))
     for sets in configs:
-        s, c, m, fx, on = _stages(sets)
-        # roll's I-term limit 2**25 - 1 (25 bits of ones): an I-term held there rounds up into the next
-        # power of two when it becomes a float32, the encode's carry case
-        fx.co[fixedrate.AXIS + fixedrate.ILIM] = 0x1FFFFFF
-        a, b = _io(), _io()
-        sta = array("i", fx.st)
-        stb = array("i", fx.st)
+        # two stages, each on its own signals: the Python twin's update on one, the viper twin's on the other
+        sa, ca, ma, fa, on = _stages(sets)
+        sb, cb, mb, fb, on = _stages(sets)
+        for fx in (fa, fb):
+            # roll's I-term limit 2**25 - 1 (25 bits of ones): an I-term held there rounds up into the next
+            # power of two when it becomes a float32, the encode's carry case
+            fx.co[fixedrate.AXIS + fixedrate.ILIM] = 0x1FFFFFF
         rnd = Lcg(11)
         for n in range(1500):
             odd = n % 5 == 4  # every fifth pass: some inputs are not numbers, infinite or huge
+            fin = []
             for k in range(5):
                 v = rnd.span(1.5) if k else rnd.unit() * 1.1
                 if odd and rnd.unit() < 0.3:
                     v = _ODD[int(rnd.unit() * len(_ODD))]
-                a[0][k] = b[0][k] = v
-            for arr in (1, 2, 3):
+                fin.append(v)
+            for s in (sa, sb):
+                s.setpoint.throttle_norm = fin[0]
+                s.setpoint.roll_angle_rad = fin[1]
+                s.setpoint.pitch_angle_rad = fin[2]
+                s.attitude.roll_rad = fin[3]
+                s.attitude.pitch_rad = fin[4]
+            for arr in range(3):
                 for k in range(3):
-                    v = rnd.span(40.0 if arr < 3 else 1.2)
+                    v = rnd.span(40.0 if arr < 2 else 1.2)
                     if odd and rnd.unit() < 0.3:
                         v = _ODD[int(rnd.unit() * len(_ODD))]
-                    a[arr][k] = b[arr][k] = v
-            flags = int(rnd.unit() * 3) | (4 if rnd.unit() > 0.2 else 0) | (8 if rnd.unit() > 0.5 else 0)
+                    for s in (sa, sb):
+                        (s.gyro_rad_s, s.setpoint.rate_rad_s, s.setpoint.stick_norm)[arr][k] = v
+            mode = int(rnd.unit() * 3)
+            i_active = rnd.unit() > 0.2
+            airmode = rnd.unit() > 0.5
             dt_us = (0, -5, 10, 64, 999, 1000, 1001, 125, 4000, 70000)[n % 10]
-            ra = fixedrate.rate_pass(fx.co, sta, a, flags, dt_us)
-            rb = rate_viper.rate_pass(fx.co, stb, b, flags, dt_us)
-            assert ra == rb, (n, ra, rb)
+            sa.setpoint.mode = sb.setpoint.mode = mode
+            fixedrate.update_python(fa, sa.setpoint, sa.attitude, dt_us, i_active, airmode)
+            fb.update(sb.setpoint, sb.attitude, dt_us, i_active, airmode)
+            assert ma.saturated == mb.saturated, (sets, n, ma.saturated, mb.saturated)
+            assert ca.tpa == cb.tpa, (sets, n, ca.tpa, cb.tpa)
             for k in range(40):
-                assert sta[k] == stb[k], (n, "st", k, sta[k], stb[k])
-            for arr in range(7):
-                for k in range(len(a[arr])):
-                    assert a[arr][k] == b[arr][k] or (a[arr][k] != a[arr][k] and b[arr][k] != b[arr][k]), \
-                        (n, arr, k, a[arr][k], b[arr][k])
+                assert fa.st[k] == fb.st[k], (sets, n, "st", k, fa.st[k], fb.st[k])
+            for name in ("pid_terms", "torque_norm", "motor_norm"):
+                a = getattr(sa, name)
+                b = getattr(sb, name)
+                for k in range(len(a)):
+                    assert a[k] == b[k] or (a[k] != a[k] and b[k] != b[k]), (sets, n, name, k, a[k], b[k])
+            for k in range(3):
+                a = sa.setpoint.rate_rad_s[k]
+                b = sb.setpoint.rate_rad_s[k]
+                assert a == b or (a != a and b != b), (sets, n, "rate", k, a, b)
 
 
 def test_a_fixed_pass_allocates_nothing_on_micropython():

@@ -1,16 +1,29 @@
-"""Viper twin of core/fixedrate.py's `rate_pass` (MicroPython only; chosen at import by core/fixedrate.py).
+"""Viper twin of core/fixedrate.py's `FixedRate.update` (MicroPython only; chosen at import by core/fixedrate.py).
 
 The same integer arithmetic, step for step, as the Python `rate_pass`, which stays the reference and
 the fallback; tests/portable/test_fixedrate.py runs both on the same inputs and wants every output
-bit equal. What differs is only how the machine does it:
+and state bit equal. What differs is only how the machine does it:
 
+- `update` is the method itself (core/fixedrate.py puts it on the class): a bytecode method of six
+  arguments gets its frame from the heap on every call (more than 11 words, py/objfun.c), and a
+  viper function keeps it on the C stack. Its runtime calls are the attribute loads of the pass's
+  five scalar inputs and their float32 stores into `fin`, `self._tab` and `self.fin`, and the
+  truth of the two flags; the mixer's `saturated` is stored only when it changes.
+- The arrays are reached through `self._tab`, a table of their buffers' addresses (`bind` writes it
+  when the stage is configured): MicroPython's collector never moves an object, and these arrays
+  never grow, so an address stays good while the arrays live (the stage keeps them in `_io`). A
+  `ptr32(array)` each pass would cost a runtime call per array. An address is two 32-bit words,
+  low then high (the high word is 0 on a 32-bit port), so one layout serves both.
 - A product `c * x / 2**s` (rounded half up) is done on x's 16-bit halves, `c * (x >> 16)` and
   `c * (x & 0xFFFF)`, so with |c| < 2**15 and |x| < 2**31 no partial product passes 2**31: viper ints
   are 32-bit machine words on the RP2040/RP2350 (64-bit on the unix VM, where overflow would not
-  show; the Python twin's checked run covers the bounds).
+  show; the Python twin's checked run covers the bounds). A zero coefficient gives 0 exactly, so
+  its product is skipped.
 - Floats are read and written as their float32 bits (`ptr32` on the "f" arrays): the decode truncates
   toward zero and clamps exactly as `fixedrate._dec`; the encode rounds to nearest, ties to even, as
-  an array store of `v / 2**q` does. So no float object is made at all.
+  an array store of `v / 2**q` does, with its exponent from a table of floor(log2) for 0..255
+  (`LOG2`). So no float object is made. Only the inputs the mode reads are decoded (the rate
+  setpoint's roll and pitch not in angle mode, the attitude not in acro, the sticks only in horizon).
 - `ptr32` loads are zero-extended on a 64-bit port: values that may be negative are sign-extended by
   `(v << sx) >> sx`, sx 32 there and 0 on a 32-bit port.
 - The product is written out at each use rather than called: a call from viper code to a viper
@@ -18,34 +31,81 @@ bit equal. What differs is only how the machine does it:
 - No constant of 2**30 or more appears (not a small int on a 32-bit port): those are shifted up
   at run time from `one`.
 
-Layouts (co, st, io, flags) are core/fixedrate.py's; the indices are repeated here as literals
+Layouts (co, st, fin, flags) are core/fixedrate.py's; the indices are repeated here as literals
 with the names in comments (a const from another module is not inlined into viper code). st[40..52]
-holds the decoded inputs, st[53..] the outputs before they are encoded.
+holds the decoded inputs, st[53..] the outputs before they are encoded. The address table (`_tab`):
+co 0, st 1, fin 2, gyro 3, rate 4, stick 5, terms 6, torque 7, motor 8, LOG2 9.
 """
 
-# ptr32/int are viper's built-in casts: they exist only inside @micropython.viper code.
+# ptr8/ptr32/int are viper's built-in casts: they exist only inside @micropython.viper code.
 # ruff: noqa: F821
 
 import micropython
 
+# floor(log2(i)) for i in 1..255 (0 for 0): the encode's exponent, a byte at a time
+LOG2 = bytearray(256)
+for _i in range(2, 256):
+    LOG2[_i] = LOG2[_i >> 1] + 1
+TAB_SIZE = 20  # ten addresses of two words
+
 
 @micropython.viper
-def rate_pass(co_a, st_a, io, flags: int, dt_us: int) -> int:
-    co = ptr32(co_a)
-    st = ptr32(st_a)
-    fin = ptr32(io[0])
-    gy = ptr32(io[1])
-    rt = ptr32(io[2])
-    sk = ptr32(io[3])
+def bind(tab, k: int, buf):
+    """Write the address of buf's data (an array or bytearray) into tab's entry k (two words)."""
+    t = ptr32(tab)
+    v = int(ptr32(buf))
+    t[2 * k] = v
+    t[2 * k + 1] = (v >> 16) >> 16
+
+
+@micropython.viper
+def update(self, sp, attitude, dt_us: int, i_active, airmode_active):
+    t = ptr32(self._tab)
+    if t[0] == 0 and t[1] == 0:  # not configured: no addresses to write through
+        return
+    # the scalar inputs as float32 (IN_THR 0, IN_ROLL_SP 1, IN_PITCH_SP 2, IN_ROLL 3, IN_PITCH 4)
+    fo = self.fin
+    fo[0] = sp.throttle_norm
+    fo[1] = sp.roll_angle_rad
+    fo[2] = sp.pitch_angle_rad
+    mode = int(sp.mode) & 3
+    if mode != 0:
+        fo[3] = attitude.roll_rad
+        fo[4] = attitude.pitch_rad
+    flags = mode
+    if i_active:
+        flags |= 4
+    if airmode_active:
+        flags |= 8
+    coa = t[0] | ((t[1] << 16) << 16)
+    sta = t[2] | ((t[3] << 16) << 16)
+    co = ptr32(coa)
+    st = ptr32(sta)
+    fin = ptr32(t[4] | ((t[5] << 16) << 16))
+    gy = ptr32(t[6] | ((t[7] << 16) << 16))
+    rt = ptr32(t[8] | ((t[9] << 16) << 16))
+    sk = ptr32(t[10] | ((t[11] << 16) << 16))
     one = 1
     sx = 0
     if (one << 31) > 0:
         sx = 32
     big = one << 30
-    # ---- decode: gyro[3], rate[3] (Q16), throttle (Q16), angles[4] (Q24), sticks[2] (Q15) -> st[40..52]
+    # ---- decode: gyro[3], rate[3] (Q16), throttle (Q16), angles[4] (Q24), sticks[2] (Q15) -> st[40..52];
+    # what the mode does not read is skipped (its slot is not read either)
+    jend = 11
+    if mode >= 2:
+        jend = 13
     j = 0
-    while j < 13:
-        q = 16
+    while j < jend:
+        if j == 3 and mode == 1:  # angle mode: the rate setpoint's roll and pitch come from the angle loop
+            j = 5
+        if j == 9 and mode == 0:  # acro: no attitude
+            j = 11
+            if jend == 11:
+                break
+        # the thresholds on the exponent e: value << (e - c) with c = 150 - q; 0 from e <= c - 24; the
+        # clamp past c + 7
+        c = 134
         lim = 0x800000
         if j < 3:
             b = gy[j]
@@ -54,29 +114,25 @@ def rate_pass(co_a, st_a, io, flags: int, dt_us: int) -> int:
         elif j < 11:
             b = fin[j - 6]
             if j > 6:
-                q = 24
+                c = 126
                 lim = 0x4000000
         else:
             b = sk[j - 11]
-            q = 15
+            c = 135
             lim = 0x8000
         e = (b >> 23) & 0xFF
-        v = 0
-        if e == 0xFF:
-            if (b & 0x7FFFFF) == 0:
-                v = lim
-        elif e != 0:
-            m = (b & 0x7FFFFF) | 0x800000
-            sh = e - 150 + q
-            if sh >= 0:
-                if sh > 7:
-                    v = lim
-                else:
-                    v = m << sh
-            elif sh > -24:
-                v = m >> (0 - sh)
-            if v > lim:
-                v = lim
+        if e < c:
+            v = 0
+            if e > c - 24:
+                v = ((b & 0x7FFFFF) | 0x800000) >> (c - e)
+        elif e <= c + 7:
+            v = ((b & 0x7FFFFF) | 0x800000) << (e - c)
+        elif e == 0xFF and (b & 0x7FFFFF) != 0:  # NaN
+            v = 0
+        else:  # past the clamp, or infinite
+            v = lim
+        if v > lim:  # a stick of 1 or more is within the shifts
+            v = lim
         if (b >> 31) & 1:
             v = 0 - v
         st[40 + j] = v
@@ -92,18 +148,22 @@ def rate_pass(co_a, st_a, io, flags: int, dt_us: int) -> int:
         st[26] = dt_us
         st[27] = 1000000 // dt_us
     inv_dt = st[27]
-    mode = flags & 3
     thr = (st[46] << sx) >> sx
     if thr < 0:
         thr = 0
     elif thr > 65536:
         thr = 65536
-    sp0 = (st[43] << sx) >> sx
-    sp1 = (st[44] << sx) >> sx
+    sp0 = 0
+    sp1 = 0
+    if mode != 1:
+        sp0 = (st[43] << sx) >> sx
+        sp1 = (st[44] << sx) >> sx
     sp2 = (st[45] << sx) >> sx
     roll_sp = (st[47] << sx) >> sx
     pitch_sp = (st[48] << sx) >> sx
     # ---- the angle loop (ANG_GAIN 0/1, ANG_FF 2/3, ANG_LIM 4, HORIZON 5; S_LAST_ROLL 24, S_LAST_PITCH 25)
+    lr = 0
+    lp = 0
     if mode != 0:
         lim = co[4]
         gm = (co[0] << sx) >> sx
@@ -134,25 +194,20 @@ def rate_pass(co_a, st_a, io, flags: int, dt_us: int) -> int:
             x = asp - att
             c = gm
             s = gs
-            if s <= 16:
-                if s:
-                    r = ((c * (x >> 16)) << (16 - s)) + ((c * (x & 0xFFFF) + (one << (s - 1))) >> s)
+            lv = 0
+            if c != 0:
+                if s <= 16:
+                    lv = ((c * (x >> 16)) << (16 - s)) + ((c * (x & 0xFFFF) + ((one << s) >> 1)) >> s)
                 else:
-                    r = ((c * (x >> 16)) << 16) + c * (x & 0xFFFF)
-            else:
-                r = (c * (x >> 16) + ((c * (x & 0xFFFF)) >> 16) + (one << (s - 17))) >> (s - 16)
-            lv = r
+                    lv = (c * (x >> 16) + ((c * (x & 0xFFFF)) >> 16) + (one << (s - 17))) >> (s - 16)
             x = v
             c = fm
             s = fs
-            if s <= 16:
-                if s:
-                    r = ((c * (x >> 16)) << (16 - s)) + ((c * (x & 0xFFFF) + (one << (s - 1))) >> s)
+            if c != 0:
+                if s <= 16:
+                    lv += ((c * (x >> 16)) << (16 - s)) + ((c * (x & 0xFFFF) + ((one << s) >> 1)) >> s)
                 else:
-                    r = ((c * (x >> 16)) << 16) + c * (x & 0xFFFF)
-            else:
-                r = (c * (x >> 16) + ((c * (x & 0xFFFF)) >> 16) + (one << (s - 17))) >> (s - 16)
-            lv += r
+                    lv += (c * (x >> 16) + ((c * (x & 0xFFFF)) >> 16) + (one << (s - 17))) >> (s - 16)
             if lv > lim:
                 lv = lim
             elif lv < 0 - lim:
@@ -192,92 +247,83 @@ def rate_pass(co_a, st_a, io, flags: int, dt_us: int) -> int:
         x = thr - bp
         c = co[8]
         s = co[9]
-        if s <= 16:
-            if s:
-                r = ((c * (x >> 16)) << (16 - s)) + ((c * (x & 0xFFFF) + (one << (s - 1))) >> s)
-            else:
-                r = ((c * (x >> 16)) << 16) + c * (x & 0xFFFF)
-        else:
-            r = (c * (x >> 16) + ((c * (x & 0xFFFF)) >> 16) + (one << (s - 17))) >> (s - 16)
-        tpa = 32768 - r
-    changed = 0
-    if tpa != st[28]:
-        changed = 2
-    st[28] = tpa
-    i_active = flags & 4
-    sat = st[29]
-    tpa_p = co[10]
-    # ---- the three rate PIDs (axis coefficients at 16 + 20k, state at 8k)
-    k = 0
-    while k < 3:
-        b = 16 + k * 20
-        sb = k * 8
-        if k == 0:
-            sp = sp0
-        elif k == 1:
-            sp = sp1
-        else:
-            sp = sp2
-        g = (st[40 + k] << sx) >> sx
-        t = tpa
-        if k == 2:
-            t = 32768
-        err = sp - g
-        # p = mul(KP, err)
-        x = err
-        c = (co[b] << sx) >> sx
-        s = co[b + 1]
-        if s <= 16:
-            if s:
-                r = ((c * (x >> 16)) << (16 - s)) + ((c * (x & 0xFFFF) + (one << (s - 1))) >> s)
-            else:
-                r = ((c * (x >> 16)) << 16) + c * (x & 0xFFFF)
-        else:
-            r = (c * (x >> 16) + ((c * (x & 0xFFFF)) >> 16) + (one << (s - 17))) >> (s - 16)
-        p = r
-        if tpa_p and t != 32768:
-            p = ((t * (p >> 16)) << 1) + ((t * (p & 0xFFFF) + 16384) >> 15)
-        if i_active:
-            i = (st[sb] << sx) >> sx
-            # step = mul(KI, mul(dt_us, err, 8))
-            x = ((dt_us * (err >> 16)) << 8) + ((dt_us * (err & 0xFFFF) + 128) >> 8)
-            c = (co[b + 2] << sx) >> sx
-            s = co[b + 3]
+        r = 0
+        if c != 0:
             if s <= 16:
-                if s:
-                    r = ((c * (x >> 16)) << (16 - s)) + ((c * (x & 0xFFFF) + (one << (s - 1))) >> s)
-                else:
-                    r = ((c * (x >> 16)) << 16) + c * (x & 0xFFFF)
+                r = ((c * (x >> 16)) << (16 - s)) + ((c * (x & 0xFFFF) + ((one << s) >> 1)) >> s)
             else:
                 r = (c * (x >> 16) + ((c * (x & 0xFFFF)) >> 16) + (one << (s - 17))) >> (s - 16)
-            step = r
-            if co[b + 12]:  # I-term relax
-                y = (st[sb + 4] << sx) >> sx
-                x = sp - y
-                c = co[b + 13]
-                s = co[b + 14]
+        tpa = 32768 - r
+    tpa_changed = 0
+    if tpa != st[28]:
+        tpa_changed = 1
+    st[28] = tpa
+    i_on = flags & 4
+    sat = st[29]
+    tpa_p = co[10]
+    # ---- the three rate PIDs: ca the axis's coefficients (AXIS 16 + 20k), sa its state (8k)
+    k = 0
+    while k < 3:
+        ca = ptr32(coa + 4 * (16 + 20 * k))
+        sa = ptr32(sta + 32 * k)
+        if k == 0:
+            spk = sp0
+        elif k == 1:
+            spk = sp1
+        else:
+            spk = sp2
+        g = (st[40 + k] << sx) >> sx
+        tk = tpa
+        if k == 2:
+            tk = 32768
+        err = spk - g
+        # p = mul(KP, err)
+        x = err
+        c = (ca[0] << sx) >> sx
+        s = ca[1]
+        p = 0
+        if c != 0:
+            if s <= 16:
+                p = ((c * (x >> 16)) << (16 - s)) + ((c * (x & 0xFFFF) + ((one << s) >> 1)) >> s)
+            else:
+                p = (c * (x >> 16) + ((c * (x & 0xFFFF)) >> 16) + (one << (s - 17))) >> (s - 16)
+        if tpa_p and tk != 32768:
+            p = ((tk * (p >> 16)) << 1) + ((tk * (p & 0xFFFF) + 16384) >> 15)
+        i = 0
+        if i_on:
+            i = (sa[0] << sx) >> sx
+            # step = mul(KI, mul(dt_us, err, 8))
+            x = ((dt_us * (err >> 16)) << 8) + ((dt_us * (err & 0xFFFF) + 128) >> 8)
+            c = (ca[2] << sx) >> sx
+            s = ca[3]
+            step = 0
+            if c != 0:
                 if s <= 16:
-                    if s:
-                        r = ((c * (x >> 16)) << (16 - s)) + ((c * (x & 0xFFFF) + (one << (s - 1))) >> s)
-                    else:
-                        r = ((c * (x >> 16)) << 16) + c * (x & 0xFFFF)
+                    step = ((c * (x >> 16)) << (16 - s)) + ((c * (x & 0xFFFF) + ((one << s) >> 1)) >> s)
                 else:
-                    r = (c * (x >> 16) + ((c * (x & 0xFFFF)) >> 16) + (one << (s - 17))) >> (s - 16)
-                y += r
-                st[sb + 4] = y
-                x = sp - y
+                    step = (c * (x >> 16) + ((c * (x & 0xFFFF)) >> 16) + (one << (s - 17))) >> (s - 16)
+            if ca[12]:  # I-term relax
+                y = (sa[4] << sx) >> sx
+                x = spk - y
+                c = ca[13]
+                s = ca[14]
+                if c != 0:
+                    if s <= 16:
+                        y += ((c * (x >> 16)) << (16 - s)) + ((c * (x & 0xFFFF) + ((one << s) >> 1)) >> s)
+                    else:
+                        y += (c * (x >> 16) + ((c * (x & 0xFFFF)) >> 16) + (one << (s - 17))) >> (s - 16)
+                sa[4] = y
+                x = spk - y
                 if x < 0:
                     x = 0 - x
-                c = co[b + 15]
-                s = co[b + 16]
-                if s <= 16:
-                    if s:
-                        r = ((c * (x >> 16)) << (16 - s)) + ((c * (x & 0xFFFF) + (one << (s - 1))) >> s)
+                c = ca[15]
+                s = ca[16]
+                factor = 32768
+                if c != 0:
+                    if s <= 16:
+                        factor -= ((c * (x >> 16)) << (16 - s)) + ((c * (x & 0xFFFF) + ((one << s) >> 1)) >> s)
                     else:
-                        r = ((c * (x >> 16)) << 16) + c * (x & 0xFFFF)
-                else:
-                    r = (c * (x >> 16) + ((c * (x & 0xFFFF)) >> 16) + (one << (s - 17))) >> (s - 16)
-                factor = 32768 - r
+                        factor -= (c * (x >> 16) + ((c * (x & 0xFFFF)) >> 16) + (one << (s - 17))) >> (s - 16)
                 if factor <= 0:
                     step = 0
                 elif factor != 32768:
@@ -287,103 +333,86 @@ def rate_pass(co_a, st_a, io, flags: int, dt_us: int) -> int:
             if step > 0:
                 up = 1
             was_up = 0
-            if ((st[sb + 1] << sx) >> sx) > 0:
+            if ((sa[1] << sx) >> sx) > 0:
                 was_up = 1
             if sat == 0 or up != was_up:
                 i += step
-            lim = co[b + 10]
+            lim = ca[10]
             if i > lim:
                 i = lim
             elif i < 0 - lim:
                 i = 0 - lim
-        else:
-            i = 0
-        st[sb] = i
+        sa[0] = i
         # D on measurement: x = mul(inv_dt, g - last, 9), Q7, clamped to 2**26
-        x = g - ((st[sb + 2] << sx) >> sx)
+        x = g - ((sa[2] << sx) >> sx)
         x = ((inv_dt * (x >> 16)) << 7) + ((inv_dt * (x & 0xFFFF) + 256) >> 9)
         if x > 0x4000000:
             x = 0x4000000
         elif x < -0x4000000:
             x = -0x4000000
-        st[sb + 2] = g
-        dm = co[b + 17]
-        ds = co[b + 18]
-        y = (st[sb + 5] << sx) >> sx
+        sa[2] = g
+        c = ca[17]
+        s = ca[18]
+        y = (sa[5] << sx) >> sx
         x = x - y
-        c = dm
-        s = ds
-        if s <= 16:
-            if s:
-                r = ((c * (x >> 16)) << (16 - s)) + ((c * (x & 0xFFFF) + (one << (s - 1))) >> s)
-            else:
-                r = ((c * (x >> 16)) << 16) + c * (x & 0xFFFF)
-        else:
-            r = (c * (x >> 16) + ((c * (x & 0xFFFF)) >> 16) + (one << (s - 17))) >> (s - 16)
-        y += r
-        st[sb + 5] = y
-        if co[b + 19]:  # PT2: the second stage
-            y2 = (st[sb + 6] << sx) >> sx
-            x = y - y2
+        if c != 0:
             if s <= 16:
-                if s:
-                    r = ((c * (x >> 16)) << (16 - s)) + ((c * (x & 0xFFFF) + (one << (s - 1))) >> s)
-                else:
-                    r = ((c * (x >> 16)) << 16) + c * (x & 0xFFFF)
+                y += ((c * (x >> 16)) << (16 - s)) + ((c * (x & 0xFFFF) + ((one << s) >> 1)) >> s)
             else:
-                r = (c * (x >> 16) + ((c * (x & 0xFFFF)) >> 16) + (one << (s - 17))) >> (s - 16)
-            y2 += r
-            st[sb + 6] = y2
+                y += (c * (x >> 16) + ((c * (x & 0xFFFF)) >> 16) + (one << (s - 17))) >> (s - 16)
+        sa[5] = y
+        if ca[19]:  # PT2: the second stage
+            y2 = (sa[6] << sx) >> sx
+            x = y - y2
+            if c != 0:
+                if s <= 16:
+                    y2 += ((c * (x >> 16)) << (16 - s)) + ((c * (x & 0xFFFF) + ((one << s) >> 1)) >> s)
+                else:
+                    y2 += (c * (x >> 16) + ((c * (x & 0xFFFF)) >> 16) + (one << (s - 17))) >> (s - 16)
+            sa[6] = y2
             y = y2
         x = y
-        c = (co[b + 4] << sx) >> sx
-        s = co[b + 5]
-        if s <= 16:
-            if s:
-                r = ((c * (x >> 16)) << (16 - s)) + ((c * (x & 0xFFFF) + (one << (s - 1))) >> s)
+        c = (ca[4] << sx) >> sx
+        s = ca[5]
+        d = 0
+        if c != 0:
+            if s <= 16:
+                d = ((c * (x >> 16)) << (16 - s)) + ((c * (x & 0xFFFF) + ((one << s) >> 1)) >> s)
             else:
-                r = ((c * (x >> 16)) << 16) + c * (x & 0xFFFF)
-        else:
-            r = (c * (x >> 16) + ((c * (x & 0xFFFF)) >> 16) + (one << (s - 17))) >> (s - 16)
-        d = r
-        if t != 32768:
-            d = ((t * (d >> 16)) << 1) + ((t * (d & 0xFFFF) + 16384) >> 15)
-        # feed-forward: mul(KF, mul(inv_dt, sp - last, 9)) + mul(KST, sp)
-        x = sp - ((st[sb + 3] << sx) >> sx)
-        x = ((inv_dt * (x >> 16)) << 7) + ((inv_dt * (x & 0xFFFF) + 256) >> 9)
-        if x > 0x4000000:
-            x = 0x4000000
-        elif x < -0x4000000:
-            x = -0x4000000
-        c = (co[b + 6] << sx) >> sx
-        s = co[b + 7]
-        if s <= 16:
-            if s:
-                r = ((c * (x >> 16)) << (16 - s)) + ((c * (x & 0xFFFF) + (one << (s - 1))) >> s)
+                d = (c * (x >> 16) + ((c * (x & 0xFFFF)) >> 16) + (one << (s - 17))) >> (s - 16)
+            if tk != 32768:
+                d = ((tk * (d >> 16)) << 1) + ((tk * (d & 0xFFFF) + 16384) >> 15)
+        # feed-forward: mul(KF, mul(inv_dt, spk - last, 9)) + mul(KST, spk)
+        f = 0
+        c = (ca[6] << sx) >> sx
+        if c != 0:
+            x = spk - ((sa[3] << sx) >> sx)
+            x = ((inv_dt * (x >> 16)) << 7) + ((inv_dt * (x & 0xFFFF) + 256) >> 9)
+            if x > 0x4000000:
+                x = 0x4000000
+            elif x < -0x4000000:
+                x = -0x4000000
+            s = ca[7]
+            if s <= 16:
+                f = ((c * (x >> 16)) << (16 - s)) + ((c * (x & 0xFFFF) + ((one << s) >> 1)) >> s)
             else:
-                r = ((c * (x >> 16)) << 16) + c * (x & 0xFFFF)
-        else:
-            r = (c * (x >> 16) + ((c * (x & 0xFFFF)) >> 16) + (one << (s - 17))) >> (s - 16)
-        f = r
-        x = sp
-        c = (co[b + 8] << sx) >> sx
-        s = co[b + 9]
-        if s <= 16:
-            if s:
-                r = ((c * (x >> 16)) << (16 - s)) + ((c * (x & 0xFFFF) + (one << (s - 1))) >> s)
+                f = (c * (x >> 16) + ((c * (x & 0xFFFF)) >> 16) + (one << (s - 17))) >> (s - 16)
+        c = (ca[8] << sx) >> sx
+        if c != 0:
+            x = spk
+            s = ca[9]
+            if s <= 16:
+                f += ((c * (x >> 16)) << (16 - s)) + ((c * (x & 0xFFFF) + ((one << s) >> 1)) >> s)
             else:
-                r = ((c * (x >> 16)) << 16) + c * (x & 0xFFFF)
-        else:
-            r = (c * (x >> 16) + ((c * (x & 0xFFFF)) >> 16) + (one << (s - 17))) >> (s - 16)
-        f += r
-        st[sb + 3] = sp
+                f += (c * (x >> 16) + ((c * (x & 0xFFFF)) >> 16) + (one << (s - 17))) >> (s - 16)
+        sa[3] = spk
         out = p + (i >> 10) + d + f
-        lim = co[b + 11]
+        lim = ca[11]
         if out > lim:
             out = lim
         elif out < 0 - lim:
             out = 0 - lim
-        st[sb + 1] = out
+        sa[1] = out
         # staged outputs: terms p, i, d, f at 53 + k, +3, +6, +9; torque at 65 + k
         st[53 + k] = p
         st[56 + k] = i
@@ -395,18 +424,24 @@ def rate_pass(co_a, st_a, io, flags: int, dt_us: int) -> int:
     r0 = (st[1] << sx) >> sx
     r1 = (st[9] << sx) >> sx
     r2 = (st[17] << sx) >> sx
+    r0h = r0 >> 16
+    r0l = r0 & 0xFFFF
+    r1h = r1 >> 16
+    r1l = r1 & 0xFFFF
+    r2h = r2 >> 16
+    r2l = r2 & 0xFFFF
     n = co[11]
     lo = big
     hi = 0 - big
     m = 0
     while m < n:
-        w = 76 + 3 * m
-        c = (co[w] << sx) >> sx
-        v = ((c * (r0 >> 16)) << 2) + ((c * (r0 & 0xFFFF) + 8192) >> 14)
-        c = (co[w + 1] << sx) >> sx
-        v += ((c * (r1 >> 16)) << 2) + ((c * (r1 & 0xFFFF) + 8192) >> 14)
-        c = (co[w + 2] << sx) >> sx
-        v += ((c * (r2 >> 16)) << 2) + ((c * (r2 & 0xFFFF) + 8192) >> 14)
+        cw = ptr32(coa + 4 * (76 + 3 * m))
+        c = (cw[0] << sx) >> sx
+        v = ((c * r0h) << 2) + ((c * r0l + 8192) >> 14)
+        c = (cw[1] << sx) >> sx
+        v += ((c * r1h) << 2) + ((c * r1l + 8192) >> 14)
+        c = (cw[2] << sx) >> sx
+        v += ((c * r2h) << 2) + ((c * r2l + 8192) >> 14)
         st[30 + m] = v
         if v < lo:
             lo = v
@@ -447,11 +482,13 @@ def rate_pass(co_a, st_a, io, flags: int, dt_us: int) -> int:
             sat = 1
         st[68 + m] = v
         m += 1
+    sat_was = st[29]
     st[29] = sat
     # ---- encode: terms[12], torque[3], motor[n], then the angle loop's rate[2] -> float32 bits
-    terms = ptr32(io[4])
-    tq = ptr32(io[5])
-    mo = ptr32(io[6])
+    terms = ptr32(t[12] | ((t[13] << 16) << 16))
+    tq = ptr32(t[14] | ((t[15] << 16) << 16))
+    mo = ptr32(t[16] | ((t[17] << 16) << 16))
+    lg = ptr8(t[18] | ((t[19] << 16) << 16))
     nout = 15 + n
     total = nout
     if mode != 0:
@@ -461,24 +498,20 @@ def rate_pass(co_a, st_a, io, flags: int, dt_us: int) -> int:
     j = 0
     while j < total:
         v = (st[53 + j] << sx) >> sx
-        q = 16
-        if j >= 3 and j < 6:
-            q = 26
         bits = 0
         if v != 0:
-            sgn = 0
             a = v
             if v < 0:
                 a = 0 - v
-                sgn = one << 31
-            pw = 0
-            tt = a
-            while tt >= 256:
-                tt = tt >> 8
-                pw += 8
-            while tt > 1:
-                tt = tt >> 1
-                pw += 1
+            if a >= 0x10000:
+                if a >= 0x1000000:
+                    pw = 24 + lg[a >> 24]
+                else:
+                    pw = 16 + lg[a >> 16]
+            elif a >= 0x100:
+                pw = 8 + lg[a >> 8]
+            else:
+                pw = lg[a]
             if pw > 23:
                 kk = pw - 23
                 mm = a >> kk
@@ -493,7 +526,12 @@ def rate_pass(co_a, st_a, io, flags: int, dt_us: int) -> int:
                     pw += 1
             else:
                 mm = a << (23 - pw)
-            bits = sgn | ((pw - q + 127) << 23) | (mm & 0x7FFFFF)
+            # the exponent: pw - q + 127, q 26 for the I-terms (j 3..5), else 16
+            if j >= 3 and j < 6:
+                pw -= 10
+            bits = ((pw + 111) << 23) | (mm & 0x7FFFFF)
+            if v < 0:
+                bits = bits | (one << 31)
         if j < 12:
             terms[j] = bits
         elif j < 15:
@@ -503,4 +541,10 @@ def rate_pass(co_a, st_a, io, flags: int, dt_us: int) -> int:
         else:
             rt[j - nout] = bits
         j += 1
-    return sat | changed
+    if sat != sat_was:
+        if sat:
+            self._mixer.saturated = True
+        else:
+            self._mixer.saturated = False
+    if tpa_changed:
+        self._tpa_changed()

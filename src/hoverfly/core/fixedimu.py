@@ -41,14 +41,17 @@ _GYRO_LIM = const(0x800000)  # 2**23: 128 rad/s in Q16
 _ACC_LIM = const(0x1000000)  # 2**24: 256 m/s^2 in Q16
 _INV16 = 1.0 / 65536.0
 
-_filter_pass = None
+_update = None
 if IS_MICROPYTHON:
     try:
-        from hoverfly.accel.imufilter import filter_pass as _filter_pass
+        from hoverfly.accel.imufilter import LOG2 as _LOG2
+        from hoverfly.accel.imufilter import TAB_SIZE as _TAB_SIZE
+        from hoverfly.accel.imufilter import bind as _bind
+        from hoverfly.accel.imufilter import update as _update
     except (SyntaxError, ImportError, NameError, ValueError):
-        _filter_pass = None
+        _update = None
 
-HAS_ACCEL = _filter_pass is not None
+HAS_ACCEL = _update is not None
 
 
 def _dec(x, lim):
@@ -84,10 +87,6 @@ def filter_pass(co, st, io):
         aout[i] = y * _INV16
 
 
-if _filter_pass is None:
-    _filter_pass = filter_pass
-
-
 def _gain(k):
     """A PT1 gain (0 < k <= 1) in Q15, rounded."""
     g = int(k * _ONE15 + 0.5)
@@ -109,6 +108,8 @@ class FixedImuFilter:
         self.st = array("i", [0] * ST_SIZE)
         self.active = False
         self._io = None
+        # the viper twin's table of the arrays' addresses (accel/imufilter.py), written by configure
+        self._tab = array("i", [0] * _TAB_SIZE) if HAS_ACCEL else None
         self._gyro = None
         self._accel = None
 
@@ -130,6 +131,13 @@ class FixedImuFilter:
             co[CO_ACC_K + i] = _gain(f.k)
             st[S_ACC1 + i] = _dec(f.s1, _ACC_LIM)
             st[S_ACC2 + i] = _dec(f.y, _ACC_LIM)
+        if HAS_ACCEL:
+            tab = self._tab
+            _bind(tab, 0, co)
+            _bind(tab, 1, st)
+            for k in range(5):
+                _bind(tab, 2 + k, self._io[k])
+            _bind(tab, 7, _LOG2)
         self.active = True
         return True
 
@@ -145,5 +153,11 @@ class FixedImuFilter:
             self.active = False
 
     def update(self):
-        """Both filters for this pass's sample (Flight.step's step 1)."""
-        _filter_pass(self.co, self.st, self._io)
+        """Both filters for this pass's sample (Flight.step's step 1). On MicroPython the viper twin
+        (accel/imufilter.py `update`) stands in for this method; `update_python` keeps it."""
+        filter_pass(self.co, self.st, self._io)
+
+
+update_python = FixedImuFilter.update
+if HAS_ACCEL:
+    FixedImuFilter.update = _update

@@ -2,8 +2,8 @@
 
 On MicroPython every float result is a new heap object; the controller and mixer made about 4.3 kB
 of them a pass (bench/core_stages.py). `FixedRate` runs the same arithmetic on small integers: the
-viper twin (accel/rate.py) on MicroPython, `rate_pass` below everywhere else (the reference,
-and what tests/portable/test_fixedrate.py holds the viper twin to, bit for bit). The float stages
+viper twin of its `update` (accel/rate.py) on MicroPython, `rate_pass` below everywhere else (the
+reference, and what tests/portable/test_fixedrate.py holds the viper twin to, bit for bit). The float stages
 (core/control.py, core/pid.py, core/mixer.py) stay the reference for what the numbers mean: the
 coefficients here are worked out from their configured values, and the results agree with theirs
 within the rounding the formats below allow (the same test).
@@ -116,14 +116,17 @@ _INV24 = 1.0 / 16777216.0
 _INV26 = 1.0 / 67108864.0
 _INV15 = 1.0 / 32768.0
 
-_rate_pass = None
+_update = None
 if IS_MICROPYTHON:
     try:
-        from hoverfly.accel.rate import rate_pass as _rate_pass
+        from hoverfly.accel.rate import LOG2 as _LOG2
+        from hoverfly.accel.rate import TAB_SIZE as _TAB_SIZE
+        from hoverfly.accel.rate import bind as _bind
+        from hoverfly.accel.rate import update as _update
     except (SyntaxError, ImportError, NameError, ValueError):
-        _rate_pass = None
+        _update = None
 
-HAS_ACCEL = _rate_pass is not None
+HAS_ACCEL = _update is not None
 
 
 def coef(value, cap=40):
@@ -366,10 +369,6 @@ def rate_pass(co, st, io, flags, dt_us):
     return sat | changed
 
 
-if _rate_pass is None:
-    _rate_pass = rate_pass
-
-
 def _q(value, one):
     """A configured float as fixed point (rounded), for limits and thresholds."""
     return int(value * one + (0.5 if value >= 0 else -0.5))
@@ -389,6 +388,8 @@ class FixedRate:
         self.fin = array("f", [0.0] * 5)
         self.active = False
         self._io = None
+        # the viper twin's table of the arrays' addresses (accel/rate.py), written by configure
+        self._tab = array("i", [0] * _TAB_SIZE) if HAS_ACCEL else None
         self._controller = None
         self._mixer = None
 
@@ -445,6 +446,13 @@ class FixedRate:
                 co[w + 2] = _q(mixer.yaw_w[m], 16384)
             else:
                 co[w] = co[w + 1] = co[w + 2] = 0
+        if HAS_ACCEL:
+            tab = self._tab
+            _bind(tab, 0, co)
+            _bind(tab, 1, self.st)
+            for k in range(7):
+                _bind(tab, 2 + k, self._io[k])
+            _bind(tab, 9, _LOG2)
         if not self.active:
             self._take_state()
         self.active = True
@@ -501,8 +509,12 @@ class FixedRate:
         c.tpa = st[S_TPA] * _INV15
         self._mixer.saturated = st[S_SAT] != 0
 
+    def _tpa_changed(self):
+        self._controller.tpa = self.st[S_TPA] * _INV15
+
     def update(self, sp, attitude, dt_us, i_active, airmode_active):
-        """The controller and mixer for this pass (Flight.step's steps 4 and 5)."""
+        """The controller and mixer for this pass (Flight.step's steps 4 and 5). On MicroPython the
+        viper twin (accel/rate.py `update`) stands in for this method; `update_python` keeps it."""
         fin = self.fin
         fin[0] = sp.throttle_norm
         fin[1] = sp.roll_angle_rad
@@ -514,8 +526,13 @@ class FixedRate:
             flags |= F_I_ACTIVE
         if airmode_active:
             flags |= F_AIRMODE
-        r = _rate_pass(self.co, self.st, self._io, flags, dt_us)
+        r = rate_pass(self.co, self.st, self._io, flags, dt_us)
         self._mixer.saturated = (r & 1) != 0
         if r & 2:
-            self._controller.tpa = self.st[S_TPA] * _INV15
+            self._tpa_changed()
+
+
+update_python = FixedRate.update
+if HAS_ACCEL:
+    FixedRate.update = _update
 
