@@ -9,10 +9,14 @@ step that only adds the gyro into the average (the three passes in four between 
 Rounds alternate between the variants; each figure is the best of ROUNDS. Bytes are a call's heap
 allocation (gc.mem_alloc, the collector off; 0 on CPython, which has no such count).
 
-Prints one JSON object {runtime, calls, us_per_call: {...}, bytes_per_call: {...}}.
+Prints one JSON object {runtime, calls, us_per_call: {...}, bytes_per_call: {...}}. With --count
+(CPython running MicroPython under valgrind's callgrind, bench/core_instructions.py's counter) it
+prints the instructions a call executes on the MicroPython VM instead, {runtime, calls,
+ir_per_call: {...}}: the figure to compare by on this shared host.
 
     MICROPYPATH=src .venv/bin/micropython -X heapsize=1m bench/estimator.py
     .venv/bin/python bench/estimator.py
+    .venv/bin/python bench/estimator.py --count
 """
 
 import sys
@@ -59,7 +63,8 @@ def _stages():
     return m, att, s
 
 
-def main():
+def _variants():
+    """(name, fn(n), angle_floats or None) for each variant; fn runs one call on sample n."""
     gs, acs = _samples()
     m_f, att_f, s_f = _stages()
     m_x, att_x, s_x = _stages()
@@ -89,8 +94,12 @@ def main():
         fs._io = ios_sum[n % N]
         return gs[n % N]
 
-    variants = (("float", run_float, None), ("fixed", run_fixed, False), ("fixed_floats", run_fixed, True),
-                ("fixed_sum", run_sum, None), ("loop", run_none, None))
+    return (("float", run_float, None), ("fixed", run_fixed, False), ("fixed_floats", run_fixed, True),
+            ("fixed_sum", run_sum, None), ("loop", run_none, None)), fx
+
+
+def main():
+    variants, fx = _variants()
     best = {}
     nbytes = {}
     for _ in range(ROUNDS):
@@ -117,5 +126,40 @@ def main():
         ", ".join('"%s": %.1f' % (k, (nbytes[k] - nbytes["loop"]) / CALLS) for k in names)))
 
 
+def _child(name, calls):
+    variants, fx = _variants()
+    for vname, fn, floats in variants:
+        if vname == name:
+            if floats is not None:
+                fx.angle_floats = floats
+            for n in range(calls):
+                fn(n)
+
+
+def count():
+    """Instructions a call of each variant executes under callgrind (less the loop's), MicroPython."""
+    import json
+    import os
+
+    from core_instructions import _count
+
+    here = os.path.dirname(os.path.abspath(__file__))
+    mp = os.path.join(os.path.dirname(sys.executable), "micropython")
+    env = dict(os.environ, MICROPYPATH="%s:%s" % (os.path.join(os.path.dirname(here), "src"), here))
+    cmd = [mp, "-X", "heapsize=8m", os.path.abspath(__file__), "--child"]
+    calls = 400
+    # the variants' set-up is the same in every run: the difference is the calls alone
+    base = _count(cmd + ["loop", str(calls)], env)
+    ir = {}
+    for name in ("float", "fixed", "fixed_floats", "fixed_sum"):
+        ir[name] = round((_count(cmd + [name, str(calls)], env) - base) / calls)
+    print(json.dumps({"runtime": "micropython", "calls": calls, "ir_per_call": ir}))
+
+
 if __name__ == "__main__":
-    main()
+    if len(sys.argv) == 4 and sys.argv[1] == "--child":
+        _child(sys.argv[2], int(sys.argv[3]))
+    elif len(sys.argv) == 2 and sys.argv[1] == "--count":
+        count()
+    else:
+        main()
