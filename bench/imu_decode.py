@@ -1,11 +1,22 @@
-"""MPU-6050 read() + decode cost over the fake I2C bus: µs per read and bytes allocated per read.
+"""MPU-6050 read() cost: µs per read and bytes allocated per read, with the bus and without it.
 
 Run: `.venv/bin/python bench/imu_decode.py` and
 `MICROPYPATH=src:.frozen .venv/bin/micropython -X heapsize=192k bench/imu_decode.py`.
-Prints one JSON object. `bus_us` is the fake bus + register model alone (one
-readfrom_mem_into of 14 bytes), so `decode_us` = read_us - bus_us is the driver's own
-share (decode, frozen/saturation watch, scale, rotate). Times are the best of several runs.
-Allocation: gc.mem_alloc deltas with GC off on MicroPython, tracemalloc on CPython.
+Prints one JSON object with two mountings: `axis_map` (CW0, what the rp2 board and
+bench/core_loop.py fly) and `aligned` (a board tilted by 0.05 rad: a general rotation).
+- `read_us`, `bus_us`: read() over the fake I2C bus and register model (frozen registers: the
+  same sample every read, so the driver's frozen watch fires), and that bus's readfrom_mem_into
+  of 14 bytes alone (the model's cost dwarfs the driver's).
+- `driver_us`: the driver alone, read() less its bus call, both over a bus whose
+  readfrom_mem_into copies one of three held bursts in (a few bytecodes, no model).
+  The pair is timed alternately, best of RUNS each; the host's noise is about ±0.3 µs.
+- `alloc_bytes_per_read` (held bursts): gc.mem_alloc deltas with GC off on MicroPython, tracemalloc on CPython.
+
+`--instructions` counts instead (valgrind's callgrind on the MicroPython VM, `MICROPYPATH` as above):
+instructions per driver read (held bus, a run of reads less a run of bus calls, over N_COUNT),
+and `board_ir_per_read`: bench/core_loop.py's BenchBoard.read_imu whole (its burst bus included)
+less an empty loop; the figures to compare two versions of the driver by. Prints {"bench", "n",
+"axis_map_ir_per_read", "aligned_ir_per_read", "board_ir_per_read"}.
 """
 
 import sys
@@ -34,33 +45,91 @@ from hoverfly.drivers.mpu6050 import MPU6050  # noqa: E402
 from hoverfly.drivers.orientation import CW270_FLIP, Orientation  # noqa: E402
 from rp2fakes.regmodels import FakeI2C, MPU6050Model  # noqa: E402
 
-RUNS = 5
+RUNS = 7
 N = 2000 if IS_MICROPYTHON else 20000
+N_COUNT = 2000
 
 
 def _no_wait(us):
     pass
 
 
+class HeldBus:
+    """The model's bus until `held`; then readfrom_mem_into hands out three bursts taken from the
+    model beforehand, in turn (never the same twice running: the frozen watch stays quiet, as on a
+    live sensor)."""
+
+    def __init__(self, bus):
+        self.bus = bus
+        self.bursts = []
+        self.held = False
+        self.k = 0
+
+    def readfrom_mem_into(self, address, register, buf):
+        if not self.held:
+            self.bus.readfrom_mem_into(address, register, buf)
+        else:
+            k = self.k + 1
+            if k == 3:
+                k = 0
+            self.k = k
+            buf[:] = self.bursts[k]
+
+    def writeto_mem(self, address, register, data):
+        self.bus.writeto_mem(address, register, data)
+
+
 def _setup(orientation):
     model = MPU6050Model(orientation, noise_lsb=0)
-    bus = FakeI2C(model)
+    bus = HeldBus(FakeI2C(model))
     drv = MPU6050(bus, orientation, delay_us=_no_wait)
     drv.configure()
-    model.set_motion((0.1, -0.2, 0.3), (0.5, -0.4, -9.8))
+    for k in range(3):
+        model.set_motion((0.1 + 0.01 * k, -0.2, 0.3), (0.5, -0.4 - 0.01 * k, -9.8))
+        b = bytearray(14)
+        bus.readfrom_mem_into(drv.address, 0x3B, b)
+        bus.bursts.append(bytes(b))
     model.freeze()  # registers hold still: the bench times the driver, not the model's maths
     return bus, drv
 
 
-def _best_us(fn, n):
-    best = None
+def _loops(bus, drv):
+    g = array("f", [0.0, 0.0, 0.0])
+    a = array("f", [0.0, 0.0, 0.0])
+    buf = bytearray(14)
+    addr = drv.address
+
+    def reads(n):
+        r = drv.read
+        for _ in range(n):
+            r(g, a)
+
+    def bus_only(n):
+        f = bus.readfrom_mem_into
+        for _ in range(n):
+            f(addr, 0x3B, buf)
+
+    reads(1)
+    return reads, bus_only
+
+
+def _time_us(fn, n):
+    t0 = ticks_us()
+    fn(n)
+    return ticks_diff(ticks_us(), t0) / n
+
+
+def _best_pair_us(f1, f2, n):
+    """Best of RUNS for each of two loops, timed alternately (the host's load hits both alike)."""
+    b1 = b2 = None
     for _ in range(RUNS):
-        t0 = ticks_us()
-        fn(n)
-        dt = ticks_diff(ticks_us(), t0)
-        if best is None or dt < best:
-            best = dt
-    return best / n
+        t1 = _time_us(f1, n)
+        t2 = _time_us(f2, n)
+        if b1 is None or t1 < b1:
+            b1 = t1
+        if b2 is None or t2 < b2:
+            b2 = t2
+    return b1, b2
 
 
 def _alloc_per_call(fn, n):
@@ -89,41 +158,82 @@ def _alloc_per_call(fn, n):
 
 def measure(orientation):
     bus, drv = _setup(orientation)
-    g = array("f", [0.0, 0.0, 0.0])
-    a = array("f", [0.0, 0.0, 0.0])
-    buf = bytearray(14)
-    addr = drv.address
-
-    def reads(n):
-        r = drv.read
-        for _ in range(n):
-            r(g, a)
-
-    def bus_only(n):
-        f = bus.readfrom_mem_into
-        for _ in range(n):
-            f(addr, 0x3B, buf)
-
-    read_us = _best_us(reads, N)
-    bus_us = _best_us(bus_only, N)
+    reads, bus_only = _loops(bus, drv)
+    read_us, bus_us = _best_pair_us(reads, bus_only, N)
+    bus.held = True
     m = 100 if IS_MICROPYTHON else 500  # GC is off while counting: stay inside a 192 KB heap
     alloc_read = _alloc_per_call(reads, m)
-    alloc_bus = _alloc_per_call(bus_only, m)
-    return read_us, bus_us, alloc_read, alloc_bus
+    held_read_us, held_bus_us = _best_pair_us(reads, bus_only, N)
+    return ('{"read_us": %.3f, "bus_us": %.3f, "driver_us": %.3f, "alloc_bytes_per_read": %.1f}'
+            % (read_us, bus_us, held_read_us - held_bus_us, alloc_read))
+
+
+def _mountings():
+    return (("axis_map", Orientation()), ("aligned", Orientation(CW270_FLIP, 0.0, 0.05, 0.0)))
+
+
+def _child(mount_name, mode, n):
+    if mount_name == "board":  # bench/core_loop.py's board: read_imu as the flight pass calls it
+        from core_loop import BenchBoard
+
+        board = BenchBoard()
+        g = array("f", [0.0, 0.0, 0.0])
+        a = array("f", [0.0, 0.0, 0.0])
+        r = board.read_imu
+        r(g, a)
+        collect_garbage()
+        disable_gc()
+        if mode == "read":
+            for _ in range(n):
+                r(g, a)
+        else:
+            for _ in range(n):
+                pass
+        return
+    for name, o in _mountings():
+        if name == mount_name:
+            bus, drv = _setup(o)
+            reads, bus_only = _loops(bus, drv)
+            bus.held = True
+            collect_garbage()
+            disable_gc()
+            if mode == "read":
+                reads(n)
+            else:
+                bus_only(n)
+
+
+def _instructions():
+    import json
+    import os
+    import re
+    import subprocess
+
+    me = os.path.abspath(__file__)
+    mp = os.path.join(os.path.dirname(sys.executable), "micropython")
+    env = dict(os.environ)
+    if "MICROPYPATH" not in env:
+        env["MICROPYPATH"] = "%s/src:.frozen" % os.path.dirname(os.path.dirname(me))
+    out = {"bench": "imu_decode", "n": N_COUNT}
+    for name in ("axis_map", "aligned", "board"):
+        counts = {}
+        for mode in ("read", "bus"):
+            err = subprocess.run(["valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null", mp,
+                                  "-X", "heapsize=8m", me, "--child", name, mode, str(N_COUNT)],
+                                 capture_output=True, text=True, env=env, check=True).stderr
+            counts[mode] = int(re.search(r"I\s+refs:\s+([\d,]+)", err).group(1).replace(",", ""))
+        out[name + "_ir_per_read"] = round((counts["read"] - counts["bus"]) / N_COUNT)
+    print(json.dumps(out))
 
 
 def main():
-    r0, b0, ar0, ab0 = measure(Orientation())
-    r1, b1, ar1, ab1 = measure(Orientation(CW270_FLIP, 0.0, 0.05, 0.0))
-    impl = sys.implementation.name
-    out = (
-        '{"bench": "imu_decode", "impl": "%s", "n": %d, '
-        '"axis_map": {"read_us": %.3f, "bus_us": %.3f, "decode_us": %.3f, '
-        '"alloc_bytes_per_read": %.1f, "alloc_bytes_bus_only": %.1f}, '
-        '"aligned": {"read_us": %.3f, "bus_us": %.3f, "decode_us": %.3f, '
-        '"alloc_bytes_per_read": %.1f, "alloc_bytes_bus_only": %.1f}}'
-    ) % (impl, N, r0, b0, r0 - b0, ar0, ab0, r1, b1, r1 - b1, ar1, ab1)
-    print(out)
+    parts = ['"%s": %s' % (name, measure(o)) for name, o in _mountings()]
+    print('{"bench": "imu_decode", "impl": "%s", "n": %d, %s}' % (sys.implementation.name, N, ", ".join(parts)))
 
 
-main()
+if len(sys.argv) > 1 and sys.argv[1] == "--child":
+    _child(sys.argv[2], sys.argv[3], int(sys.argv[4]))
+elif len(sys.argv) > 1 and sys.argv[1] == "--instructions":
+    _instructions()
+else:
+    main()

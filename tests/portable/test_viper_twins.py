@@ -1,26 +1,23 @@
 """The viper accel twins give the same bytes and bits as their pure-Python twins.
 
 Portable: under MicroPython (tests/portable/mprun.py) each viper twin (accel/crsf.py,
-accel/dshot.py, accel/mpu6050.py) must be the one its module chose, and is run
-side by side with the Python twin on pseudo-random inputs (an LCG: the same sequence on every
-port) plus edge cases; every output must match. On CPython (pytest) there is no viper: the
-modules must have kept the Python twins, and those must still decode and encode.
+accel/dshot.py) must be the one its module chose, and is run side by side with the Python twin
+on pseudo-random inputs (an LCG: the same sequence on every port) plus edge cases; every output
+must match. On CPython (pytest) there is no viper: the modules must have kept the Python twins,
+and those must still decode and encode.
+The MPU-6050 read's twins: tests/portable/test_mpu6050_twins.py.
 """
 
-import math
 from array import array
 
 from hoverfly.compat import IS_MICROPYTHON
-from hoverfly.drivers import mpu6050
-from hoverfly.drivers.orientation import CW0, CW90_FLIP, CW180, CW270_FLIP, Orientation
 from hoverfly.protocols import crc, crsf, dshot, rxcodec
 
 if IS_MICROPYTHON:
     from hoverfly.accel import crsf as crsf_viper
     from hoverfly.accel import dshot as dshot_viper
-    from hoverfly.accel import mpu6050 as mpu6050_viper
 else:
-    mpu6050_viper = crsf_viper = dshot_viper = None
+    crsf_viper = dshot_viper = None
 
 
 class Lcg:
@@ -70,13 +67,11 @@ def test_micropython_picks_the_viper_twins_and_cpython_the_python_ones():
         assert crsf._unpack11 is crsf_viper.unpack11
         assert crsf._crc8 is crsf_viper.crc8_dvb_s2
         assert dshot._encode_armed is dshot_viper.encode_armed
-        assert mpu6050._decode is mpu6050_viper.decode
     else:
         assert crsf._check_unpack11 is rxcodec.check_unpack11
         assert crsf._unpack11 is rxcodec.unpack11
         assert crsf._crc8 is crc.crc8_dvb_s2
         assert dshot._encode_armed is None
-        assert mpu6050._decode is None
 
 
 def test_crsf_decoder_decodes_an_rc_frame_through_the_chosen_twin():
@@ -223,93 +218,3 @@ def test_dshot_encode_gives_stop_min_and_max_values():
     w = _encode_both(enc, array("f", [0.0, 0.0, 1.0, 0.0]))
     assert dshot.frame_crc_ok(w[2], True) and not dshot.frame_crc_ok(w[2], False)
     assert w[0] == dshot.dshot_frame(0, 0, True)
-
-
-# ------------------------------------------------------------------------------------ MPU-6050
-
-class _BurstBus:
-    def __init__(self):
-        self.burst = bytearray(14)
-
-    def readfrom_mem_into(self, address, register, buf):
-        for k in range(len(buf)):
-            buf[k] = self.burst[k]
-
-
-def _read_both(drv, bus, burst):
-    """read() with the chosen twin, then with the Python lines; asserts they agree bit for bit."""
-    for k in range(14):
-        bus.burst[k] = burst[k]
-    ga, aa = array("f", [9.0] * 3), array("f", [9.0] * 3)
-    gb, ab = array("f", [9.0] * 3), array("f", [9.0] * 3)
-    assert drv.read(ga, aa)
-    state_a = (drv.temp_raw, drv.saturated)
-    vplan = drv._vplan
-    drv._vplan = None
-    try:
-        assert drv.read(gb, ab)
-    finally:
-        drv._vplan = vplan
-    assert list(ga) == list(gb) and list(aa) == list(ab), (bytes(burst), list(ga), list(gb), list(aa), list(ab))
-    assert state_a == (drv.temp_raw, drv.saturated), (bytes(burst), state_a)
-    return ga, aa
-
-
-def _driver(mount, bias):
-    bus = _BurstBus()
-    drv = mpu6050.MPU6050(bus, Orientation(mount), delay_us=lambda us: None)
-    drv._gyro_k16 = math.pi / 180.0 / 16.4 / 16.0  # configure()'s 2000 dps and 16 g scales
-    drv._accel_k = 9.80665 / 2048.0
-    drv.set_gyro_bias16(bias[0], bias[1], bias[2])
-    if IS_MICROPYTHON:
-        assert drv._vplan is not None
-    else:
-        assert drv._vplan is None
-    return bus, drv
-
-
-def test_mpu6050_decode_twins_agree_on_random_and_edge_bursts():
-    rnd = Lcg(5)
-    edges = (bytes(14), b"\xff" * 14, b"\x80\x00" * 7, b"\x7f\xff" * 7, b"\x80\x01" * 7, b"\x00\x01" * 7)
-    cases = 0
-    for mount in (CW0, CW180, CW90_FLIP, CW270_FLIP):
-        for bias in ((0, 0, 0), (-1, 1, -524287), (524287, -524287, 12345)):
-            bus, drv = _driver(mount, bias)
-            for burst in edges:
-                _read_both(drv, bus, burst)
-                cases += 1
-            if not IS_MICROPYTHON:
-                continue
-            burst = bytearray(14)
-            for _ in range(60):
-                rnd.fill(burst, 0, 14)
-                _read_both(drv, bus, burst)
-                cases += 1
-    assert cases >= 72
-
-
-def test_mpu6050_decode_signs_and_scales_negative_extremes():
-    bus, drv = _driver(CW0, (16, 0, 0))
-    # accel x -32768, y 32767, z -1; temp -32768; gyro x -32768, y 1, z 32767 (chip axes)
-    g, a = _read_both(drv, bus, b"\x80\x00\x7f\xff\xff\xff\x80\x00\x80\x00\x00\x01\x7f\xff")
-    k = drv._gyro_k16
-    assert drv.temp_raw == -32768
-    assert drv.saturated
-    # CW0: FRD = (x, -y, -z) of the chip
-    assert a[0] == array("f", [-32768 * drv._accel_k])[0] and a[1] == array("f", [-32767 * drv._accel_k])[0]
-    assert a[2] == array("f", [1 * drv._accel_k])[0]
-    assert g[0] == array("f", [(-32768 * 16 - 16) * k])[0] and g[1] == array("f", [-16 * k])[0]
-    assert g[2] == array("f", [-32767 * 16 * k])[0]
-
-
-def test_mpu6050_viper_plan_refuses_a_bias_it_cannot_hold():
-    if not IS_MICROPYTHON:
-        return
-    assert mpu6050_viper.plan((0, 2, 4), (1, -1, -1), (0, 0, 0)) is not None
-    assert mpu6050_viper.plan((0, 2, 4), (1, -1, -1), (1 << 20, 0, 0)) is None
-    assert mpu6050_viper.plan((0, 2, 4), (1, -1, -1), (0, -(1 << 20), 0)) is None
-    assert mpu6050_viper.plan((0, 2, 4), (1, -1, -1), (0, 0, 0.5)) is None
-    bus, drv = _driver(CW0, (0, 0, 0))
-    drv.set_gyro_bias16(1 << 21, 0, 0)  # outside the plan: read() keeps the Python lines
-    assert drv._vplan is None
-    assert drv.read(array("f", [0.0] * 3), array("f", [0.0] * 3))

@@ -11,6 +11,7 @@ product specification PS-MPU-6000A-00 rev 3.4 §6.1/6.2.
 """
 
 from array import array
+from struct import pack, unpack
 
 from hoverfly.compat import IS_MICROPYTHON, const
 from hoverfly.drivers.imu import (
@@ -23,16 +24,114 @@ from hoverfly.drivers.imu import (
     Imu,
 )
 
-# The burst decode of read()'s axis-map path: a viper twin on MicroPython (accel/mpu6050.py),
-# else the Python lines in read(); tested equal. The float scaling stays Python either way.
-_decode = None
-_viper_plan = None
+# read()'s state: one array('i') holding the plan (configure-time) and the frozen/saturated watch.
+# accel/mpu6050.py declares the same numbers for its viper twin (tests/portable/test_mpu6050_twins.py).
+# Every word the twins read back is >= 0: viper's ptr32 loads are zero-extended on a 64-bit port.
+ST_OFF = const(0)  # 0..2: body axis k's chip axis as a byte offset in the burst (0/2/4)
+ST_FLIP = const(3)  # 3..5: 1 if body axis k is that chip axis negated
+ST_BIAS = const(6)  # 6..8: that chip axis's gyro bias in 1/16 LSB, plus BIAS_OFFSET
+ST_GYRO_M = const(9)  # gyro scale (rad/s per 1/16 LSB) as float32: mantissa with its hidden bit
+ST_GYRO_E = const(10)  # ... and biased exponent
+ST_ACCEL_M = const(11)  # accel scale (m/s² per LSB) as float32: mantissa
+ST_ACCEL_E = const(12)  # ... and biased exponent
+ST_SCALED = const(13)  # 1: the twin writes the floats (axis map); 0: it leaves chip-frame counts in ST_RAW
+ST_LAST = const(14)  # 14..19: the last sample's six raw words, chip order (accel x y z, gyro x y z)
+ST_SAME = const(20)  # consecutive samples equal to the one before, at most SAME_CAP
+ST_PREV = const(21)  # the last read's flags: non-zero if it left frozen/saturated flags to clear
+ST_TEMP = const(22)  # TEMP_OUT, signed
+ST_RAW = const(23)  # 23..28: signed chip-frame counts, accel x y z, gyro x y z (ST_SCALED 0 only)
+ST_SIZE = const(29)
+BIAS_OFFSET = const(1048576)  # the plan takes a bias within +-2**20 (calibration gives +-2**19)
+SAME_CAP = const(16777216)  # 2**24
+# read_burst's result: 0 = nothing to do; else bit 0 = clear the flags, bit 1 = ST_RAW holds
+# the counts (Python scales them), bit 2 = saturated, bits 3.. = the same-sample count.
+_R_COUNTS = const(2)
+_R_SATURATED = const(4)
+# The plan's scales as float32 must stay normal and their products finite: 2**-100 .. 2**100.
+_K_MIN = 2.0 ** -100
+_K_MAX = 2.0 ** 100
+
+
+def read_burst(buf, st, gyro_rad_s, accel_m_s2):
+    """The burst's watch and decode; the pure-Python twin of accel/mpu6050.py read_burst.
+
+    buf: the 14-byte burst from ACCEL_XOUT_H (big-endian int16, RM §4.17-4.19: _H register first).
+    st: MPU6050's array('i') of ST_SIZE (plan, then the watch state). Updates the watch (the same
+    six values as the sample before: ST_SAME counts up; a value at +32767 or <= -32767: saturated)
+    and ST_TEMP. With ST_SCALED 1 writes body-frame FRD gyro (rad/s) and accel (m/s²): each value
+    an integer n times the plan's float32 scale k, n * k rounded once to float32 on every port
+    (|n| < 2**21 and k's 24-bit mantissa: a float64 product is exact); with ST_SCALED 0 leaves the
+    chip-frame counts in ST_RAW. Returns the flags above (0 on a plain sample).
+    """
+    same = 1
+    sat = 0
+    j = ST_LAST
+    for i in (0, 2, 4, 8, 10, 12):
+        v = (buf[i] << 8) | buf[i + 1]
+        if 0x7FFF <= v <= 0x8001:  # +32767, -32768, -32767: pinned at a rail
+            sat = 1
+        if v != st[j]:
+            same = 0
+            st[j] = v
+        j += 1
+    n = 0
+    if same:
+        n = st[ST_SAME] + 1
+        if n > SAME_CAP:
+            n = SAME_CAP
+    st[ST_SAME] = n
+    flags = (n << 3) | (sat << 2)
+    st[ST_TEMP] = (((buf[6] << 8) | buf[7]) ^ 0x8000) - 0x8000
+    if st[ST_SCALED] == 0:
+        j = ST_RAW
+        for i in (0, 2, 4, 8, 10, 12):
+            st[j] = (((buf[i] << 8) | buf[i + 1]) ^ 0x8000) - 0x8000
+            j += 1
+        flags |= _R_COUNTS
+    else:
+        kg = float32_of(st[ST_GYRO_M], st[ST_GYRO_E])
+        ka = float32_of(st[ST_ACCEL_M], st[ST_ACCEL_E])
+        for axis in range(3):
+            off = st[ST_OFF + axis]
+            a = (((buf[off] << 8) | buf[off + 1]) ^ 0x8000) - 0x8000
+            g = ((((buf[off + 8] << 8) | buf[off + 9]) ^ 0x8000) - 0x8000) * 16 - (st[ST_BIAS + axis] - BIAS_OFFSET)
+            if st[ST_FLIP + axis]:
+                a = -a
+                g = -g
+            accel_m_s2[axis] = a * ka
+            gyro_rad_s[axis] = g * kg
+    if flags == 0 and st[ST_PREV] != 0:
+        st[ST_PREV] = 0
+        return 1
+    st[ST_PREV] = flags
+    return flags
+
+
+def float32_parts(k):
+    """(mantissa with its hidden bit, biased exponent) of float32(k); None unless _K_MIN < k < _K_MAX."""
+    if not (_K_MIN < k < _K_MAX):  # NaN too
+        return None
+    b = unpack("<I", pack("<f", k))[0]
+    return (b & 0x7FFFFF) | 0x800000, (b >> 23) & 0xFF
+
+
+def float32_of(mantissa, exponent):
+    """The float32 value float32_parts gave (as this port's float; exact)."""
+    return unpack("<f", pack("<I", (exponent << 23) | (mantissa & 0x7FFFFF)))[0]
+
+
+def float32(x):
+    """x rounded to float32 (the identity on a float32 port)."""
+    return array("f", (x,))[0]
+
+
+# The viper twin on MicroPython (accel/mpu6050.py), else the Python one above; tested equal.
+_read_burst = read_burst
 if IS_MICROPYTHON:
     try:
-        from hoverfly.accel.mpu6050 import decode as _decode
-        from hoverfly.accel.mpu6050 import plan as _viper_plan
+        from hoverfly.accel.mpu6050 import read_burst as _read_burst
     except (SyntaxError, ImportError, NameError, ValueError):
-        _decode = None
+        _read_burst = read_burst
 
 ADDRESS = 0x68  # AD0 low (RM §4.32 WHO_AM_I note; seed 000)
 ADDRESS_ALT = 0x69  # AD0 high
@@ -84,9 +183,8 @@ class MPU6050(Imu):
         self.temp_raw = 0
         self.rate_hz = 0
         self._raw_gx = self._raw_gy = self._raw_gz = 0
-        self._raw = array("i", [0] * 13)  # the viper decode's output (accel/mpu6050.py decode)
-        self._vplan = None
-        self._plan_decode()
+        self._st = array("i", [0] * ST_SIZE)  # read_burst's plan and watch state (ST_*)
+        self._plan()
 
     def probe(self):
         """True if an MPU-6050 answers WHO_AM_I; otherwise False with status ABSENT / WRONG_ID."""
@@ -142,123 +240,95 @@ class MPU6050(Imu):
         self.gyro_range_dps = gyro_range_dps
         self.accel_range_g = accel_range_g
         self.rate_hz = rate_hz
-        self._gyro_k16 = DEG_TO_RAD / GYRO_LSB_PER_DPS[fs] / 16.0
-        self._accel_k = GRAVITY_M_S2 / ACCEL_LSB_PER_G[afs]
+        # The scales as float32, what the chip's floats hold: a count times them is then exact in a
+        # float64, so the arrays get the same one rounding on every port (read_burst).
+        self._gyro_k16 = float32(DEG_TO_RAD / GYRO_LSB_PER_DPS[fs] / 16.0)
+        self._accel_k = float32(GRAVITY_M_S2 / ACCEL_LSB_PER_G[afs])
         self.set_gyro_bias16(self._bias16_x, self._bias16_y, self._bias16_z)
         self.status = STATUS_OK
         return True
 
     def set_gyro_bias16(self, bx16, by16, bz16):
         Imu.set_gyro_bias16(self, bx16, by16, bz16)
-        self._plan_decode()
+        self._plan()
 
-    def _plan_decode(self):
-        """read()'s table for a pure axis map (no alignment angles): per body axis, the byte offset
-        of its chip axis in the burst, the sign (an int, as Orientation.rotate_scaled applies it)
-        and that chip axis's gyro bias. The scales are read at each read(); the rest changes only
-        here (construction, configure, a new bias)."""
+    def _plan(self):
+        """read_burst's plan (ST_OFF..ST_SCALED), from the orientation, the scales and the bias:
+        construction, configure and a new bias set it; the watch state is kept. For a pure axis
+        map (no alignment angles), per body axis the byte offset of its chip axis in the burst, its
+        sign and that chip axis's bias, and the scales as float32 parts: the twin writes the floats.
+        Otherwise, or for a scale or bias the plan cannot hold, it leaves the counts and read()
+        scales them through Orientation.rotate_scaled."""
+        st = self._st
+        st[ST_SCALED] = 0
         o = self._orientation
-        self._direct = o.axis_map_only
-        self._vplan = None
-        if not self._direct:
+        if not o.axis_map_only:
             return
-        m = o.matrix()
+        gk = float32_parts(self._gyro_k16)
+        ak = float32_parts(self._accel_k)
         bias = (self._bias16_x, self._bias16_y, self._bias16_z)
-        plan = []
+        if gk is None or ak is None:
+            return
+        for b in bias:
+            if not isinstance(b, int) or b <= -BIAS_OFFSET or b >= BIAS_OFFSET:
+                return
+        m = o.matrix()
         for i in range(3):
             row = m[i]
             j = 0 if row[0] != 0 else (1 if row[1] != 0 else 2)
-            plan.append(2 * j)  # accel X/Y/Z_OUT_H at burst bytes 0, 2, 4; gyro 8 bytes on (RM §4.17/4.19)
-            plan.append(1 if row[j] > 0 else -1)
-            plan.append(bias[j])
-        self._plan = tuple(plan)
-        if _decode is not None:
-            self._vplan = _viper_plan((plan[0], plan[3], plan[6]), (plan[1], plan[4], plan[7]),
-                                      (plan[2], plan[5], plan[8]))
+            st[ST_OFF + i] = 2 * j  # accel X/Y/Z_OUT_H at burst bytes 0, 2, 4 (RM §4.17)
+            st[ST_FLIP + i] = 1 if row[j] < 0 else 0
+            st[ST_BIAS + i] = bias[j] + BIAS_OFFSET
+        st[ST_GYRO_M] = gk[0]
+        st[ST_GYRO_E] = gk[1]
+        st[ST_ACCEL_M] = ak[0]
+        st[ST_ACCEL_E] = ak[1]
+        st[ST_SCALED] = 1
 
     def read(self, gyro_rad_s, accel_m_s2):
-        """One 14-byte burst from ACCEL_XOUT_H, decoded by hand, into FRD rad/s and m/s².
+        """One 14-byte burst from ACCEL_XOUT_H into FRD rad/s and m/s² (array('f')s of 3).
 
         False (arrays untouched) on a bus error, which is counted in bus_errors.
         """
-        buf = self._buf
+        # A frame over 11 words is taken from the heap (and freed) at every call (MicroPython
+        # objfun.c VM_MAX_STATE_ON_STACK). A try block is 3 words and 5 of stack; `except OSError`
+        # takes 1 more and `+=` in the handler another: with the bare except and the count in
+        # _bus_error this frame is 11. Any exception out of the transfer counts as a bus error.
         try:
-            self._bus.readfrom_mem_into(self.address, _ACCEL_XOUT_H, buf)
-        except OSError:
-            self.bus_errors += 1
-            return False
-        vplan = self._vplan
-        if vplan is not None:
-            # The viper twin of the lines below: the same ints, into self._raw (accel/mpu6050.py).
-            r = self._raw
-            _decode(buf, vplan, r)
-            self.temp_raw = r[6]
-            self._watch(r[3], r[4], r[5], r[0], r[1], r[2])
-            k = self._gyro_k16
-            gyro_rad_s[0] = r[7] * k
-            gyro_rad_s[1] = r[8] * k
-            gyro_rad_s[2] = r[9] * k
-            k = self._accel_k
-            accel_m_s2[0] = r[10] * k
-            accel_m_s2[1] = r[11] * k
-            accel_m_s2[2] = r[12] * k
-            self.samples += 1
-            return True
-        if self._direct:
-            # A pure axis map: each body axis is read from its chip axis's bytes and signed as an int,
-            # then scaled: the numbers rotate_scaled gives, without its calls and selections.
-            # Big-endian signed 16-bit (RM §4.17-4.19: _H register first): (v ^ 0x8000) - 0x8000.
-            o0, s0, b0, o1, s1, b1, o2, s2, b2 = self._plan
-            a0 = (((buf[o0] << 8) | buf[o0 + 1]) ^ 0x8000) - 0x8000
-            a1 = (((buf[o1] << 8) | buf[o1 + 1]) ^ 0x8000) - 0x8000
-            a2 = (((buf[o2] << 8) | buf[o2 + 1]) ^ 0x8000) - 0x8000
-            g0 = (((buf[o0 + 8] << 8) | buf[o0 + 9]) ^ 0x8000) - 0x8000
-            g1 = (((buf[o1 + 8] << 8) | buf[o1 + 9]) ^ 0x8000) - 0x8000
-            g2 = (((buf[o2 + 8] << 8) | buf[o2 + 9]) ^ 0x8000) - 0x8000
-            self.temp_raw = (((buf[6] << 8) | buf[7]) ^ 0x8000) - 0x8000
-            # Body order: the frozen and saturated tests are the same for any fixed order of the six.
-            self._watch(g0, g1, g2, a0, a1, a2)
-            k = self._gyro_k16
-            gyro_rad_s[0] = s0 * (g0 * 16 - b0) * k
-            gyro_rad_s[1] = s1 * (g1 * 16 - b1) * k
-            gyro_rad_s[2] = s2 * (g2 * 16 - b2) * k
-            k = self._accel_k
-            accel_m_s2[0] = s0 * a0 * k
-            accel_m_s2[1] = s1 * a1 * k
-            accel_m_s2[2] = s2 * a2 * k
-            self.samples += 1
-            return True
-        # Big-endian signed 16-bit (RM §4.17-4.19: _H register first).
-        ax = (buf[0] << 8) | buf[1]
-        if ax & 0x8000:
-            ax -= 0x10000
-        ay = (buf[2] << 8) | buf[3]
-        if ay & 0x8000:
-            ay -= 0x10000
-        az = (buf[4] << 8) | buf[5]
-        if az & 0x8000:
-            az -= 0x10000
-        t = (buf[6] << 8) | buf[7]
-        if t & 0x8000:
-            t -= 0x10000
-        gx = (buf[8] << 8) | buf[9]
-        if gx & 0x8000:
-            gx -= 0x10000
-        gy = (buf[10] << 8) | buf[11]
-        if gy & 0x8000:
-            gy -= 0x10000
-        gz = (buf[12] << 8) | buf[13]
-        if gz & 0x8000:
-            gz -= 0x10000
-        self.temp_raw = t
-        self._watch(gx, gy, gz, ax, ay, az)
-        o = self._orientation
-        # Bias in 1/16 LSB keeps sub-LSB calibration without floats; |gx*16| < 2**20.
-        o.rotate_scaled(gx * 16 - self._bias16_x, gy * 16 - self._bias16_y, gz * 16 - self._bias16_z,
-                        self._gyro_k16, gyro_rad_s)
-        o.rotate_scaled(ax, ay, az, self._accel_k, accel_m_s2)
+            self._bus.readfrom_mem_into(self.address, _ACCEL_XOUT_H, self._buf)
+        except:  # noqa: E722
+            return self._bus_error()
+        if _read_burst(self._buf, self._st, gyro_rad_s, accel_m_s2):
+            self._finish(gyro_rad_s, accel_m_s2)
+        self.temp_raw = self._st[ST_TEMP]
         self.samples += 1
         return True
+
+    def _bus_error(self):
+        """read()'s failed transfer: counted in bus_errors; read() returns this (False)."""
+        self.bus_errors += 1
+        return False
+
+    def _finish(self, gyro_rad_s, accel_m_s2):
+        """read()'s rare half: the flags of a frozen, saturated or just-recovered sample, and the
+        scaling read_burst left to Python (a general alignment, or a plan it could not hold)."""
+        st = self._st
+        r = st[ST_PREV]  # read_burst's flags (0 when it asked for the flags to be cleared)
+        if r & _R_COUNTS:
+            o = self._orientation
+            # Bias in 1/16 LSB keeps sub-LSB calibration without floats; |gx*16| < 2**20.
+            o.rotate_scaled(st[ST_RAW + 3] * 16 - self._bias16_x, st[ST_RAW + 4] * 16 - self._bias16_y,
+                            st[ST_RAW + 5] * 16 - self._bias16_z, self._gyro_k16, gyro_rad_s)
+            o.rotate_scaled(st[ST_RAW], st[ST_RAW + 1], st[ST_RAW + 2], self._accel_k, accel_m_s2)
+        same = r >> 3
+        frozen = same > 0 and same >= self.frozen_samples
+        self.frozen = frozen
+        if frozen:
+            self.frozen_count += 1
+        saturated = (r & _R_SATURATED) != 0
+        self.saturated = saturated
+        if saturated:
+            self.saturated_count += 1
 
     def temperature_c(self):
         """Die temperature of the newest sample: RM §4.18, TEMP_OUT / 340 + 36.53."""
