@@ -66,46 +66,51 @@ def _stages():
 def _variants():
     """(name, fn(n), angle_floats or None) for each variant; fn runs one call on sample n."""
     gs, acs = _samples()
-    m_f, att_f, s_f = _stages()
-    m_x, att_x, s_x = _stages()
-    fx = fixedatt.FixedAttitude()
-    fx.configure(m_x, att_x, s_x, 250, 1, True)
-    m_s, att_s, s_s = _stages()
-    fs = fixedatt.FixedAttitude()
-    fs.configure(m_s, att_s, s_s, 1000, 1 << 7, True)  # the sum only (it never gets to the update)
-
-    # one io tuple per sample (the samples' own arrays): a step reads them without a float made here
-    ios = [(gs[k], acs[k], att_x.q, att_x.angles, m_x.bias_rad_s) for k in range(N)]
-    ios_sum = [(gs[k], acs[k], att_s.q, att_s.angles, m_s.bias_rad_s) for k in range(N)]
+    # one stage per sample, its arrays holding the sample (a float copied in would be a float made)
+    floats = []
+    fixed = []
+    sums = []
+    for k in range(N):
+        floats.append((_stages()[0], Attitude()))
+        m, att, s = _stages()
+        s.gyro_rad_s = gs[k]
+        s.accel_m_s2 = acs[k]
+        fx = fixedatt.FixedAttitude()
+        fx.configure(m, att, s, 250, 1, True)
+        fixed.append(fx)
+        fs = fixedatt.FixedAttitude()
+        fs.configure(m, Attitude(), s, 1000, 1 << 7, True)  # the sum only (it never gets to the update)
+        sums.append(fs)
 
     def run_float(n):
-        m_f.update(gs[n % N], acs[n % N], 0.004, True, att_f)
+        m, att = floats[n % N]
+        m.update(gs[n % N], acs[n % N], 0.004, True, att)
 
     def run_fixed(n):
-        fx._io = ios[n % N]
-        fx.step(4000, True)
+        fixed[n % N].step(4000, True)
 
     def run_sum(n):
-        fs._io = ios_sum[n % N]
+        fs = sums[n % N]
         fs.st[fixedatt.S_N] = 0
         fs.step(1000, True)
 
     def run_none(n):  # the loop and the look-ups alone
-        fs._io = ios_sum[n % N]
+        m, att = floats[n % N]
         return gs[n % N]
 
     return (("float", run_float, None), ("fixed", run_fixed, False), ("fixed_floats", run_fixed, True),
-            ("fixed_sum", run_sum, None), ("loop", run_none, None)), fx
+            ("fixed_sum", run_sum, None), ("loop", run_none, None)), fixed
 
 
 def main():
-    variants, fx = _variants()
+    variants, fixed = _variants()
     best = {}
     nbytes = {}
     for _ in range(ROUNDS):
         for name, fn, floats in variants:
             if floats is not None:
-                fx.angle_floats = floats
+                for fx in fixed:
+                    fx.angle_floats = floats
             collect_garbage()
             disable_gc()
             a0 = mem_alloc()
@@ -127,11 +132,12 @@ def main():
 
 
 def _child(name, calls):
-    variants, fx = _variants()
+    variants, fixed = _variants()
     for vname, fn, floats in variants:
         if vname == name:
             if floats is not None:
-                fx.angle_floats = floats
+                for fx in fixed:
+                    fx.angle_floats = floats
             for n in range(calls):
                 fn(n)
 

@@ -298,11 +298,9 @@ _TWIN_SETS = (
 def test_bad_inputs_never_raise_and_leave_a_unit_quaternion():
     for sets, every in _TWIN_SETS:
         m, att, s, fx, on = _stages(sets, every)
-        io = _io()
-        fx._io = (io[0], io[1], att.q, att.angles, m.bias_rad_s)
         rnd = Lcg(17)
         for n in range(1200):
-            _odd_inputs(rnd, n, ((io[0], io[1], att.q, att.angles, m.bias_rad_s),))
+            _odd_inputs(rnd, n, (fx._io,))
             fx.step(int(rnd.span(30000.0)) if n % 7 == 0 else 1000, n % 3 != 0)
             if fx.st[fixedatt.S_N] == 0:  # an update ran
                 assert abs(sum(att.q[i] * att.q[i] for i in range(4)) - 1.0) < 1e-5, (sets, n, list(att.q))
@@ -317,29 +315,38 @@ def _bits(arr):
 
 def test_the_viper_twin_gives_the_python_twins_bits():
     if not IS_MICROPYTHON:
-        assert fixedatt._att_pass is fixedatt.att_pass  # no viper: the Python twin runs
+        assert fixedatt.FixedAttitude.step is fixedatt.step_python  # no viper: the Python twin runs
         return
-    assert fixedatt._att_pass is att_viper.att_pass
+    assert fixedatt.FixedAttitude.step is att_viper.step
     for sets, every in _TWIN_SETS:
-        m, att, s, fx, on = _stages(sets, every)
-        ia, ib = _io(), _io()
-        sta = array("i", fx.st)
-        stb = array("i", fx.st)
+        ma, atta, sa, fxa, on = _stages(sets, every)
+        mb, attb, sb, fxb, on = _stages(sets, every)
+        fxb.angle_floats = False  # one twin sets the float attributes, the other not: both ways checked
         rnd = Lcg(11)
         updates = 0
         for n in range(3000):
-            _odd_inputs(rnd, n, (ia, ib))
+            _odd_inputs(rnd, n, (fxa._io, fxb._io))
             dt_us = 1000 if n % 11 else int(rnd.span(40000.0))
-            flags = fixedatt.F_ARMED if n % 3 else 0
-            ra = fixedatt.att_pass(fx.co, sta, ia, flags, dt_us)
-            rb = att_viper.att_pass(fx.co, stb, ib, flags, dt_us)
+            armed = n % 3 != 0
+            ra = fixedatt.step_python(fxa, dt_us, armed)
+            rb = fxb.step(dt_us, armed)
             assert ra == rb, (sets, n, ra, rb)
             updates += 1 if ra else 0
             for k in range(5):
-                assert sta[k] == stb[k], (sets, n, "st", k, sta[k], stb[k])
+                assert fxa.st[k] == fxb.st[k], (sets, n, "st", k, fxa.st[k], fxb.st[k])
             for k in (2, 3, 4):
-                assert _bits(ia[k]) == _bits(ib[k]), (sets, n, k, list(ia[k]), list(ib[k]))
+                assert _bits(fxa._io[k]) == _bits(fxb._io[k]), (sets, n, k, list(fxa._io[k]), list(fxb._io[k]))
+            assert ma._bias_zero == mb._bias_zero, (sets, n)
+            if ra:
+                assert atta.roll_rad == attb.angles[ROLL] and atta.cos_tilt == attb.angles[COS_TILT], (sets, n)
         assert updates == 3000 // every
+    # the viper twin sets the float attributes as the Python twin does
+    assert attb.roll_rad == 0.0
+    fxb.angle_floats = True
+    sb.gyro_rad_s[0] = 1.0
+    for _ in range(every):
+        fxb.step(1000, True)
+    assert attb.roll_rad == attb.angles[ROLL] and attb.roll_rad != 0.0
 
 
 def test_a_fixed_step_allocates_nothing_on_micropython():

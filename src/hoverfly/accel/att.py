@@ -1,12 +1,17 @@
-"""Viper twin of core/fixedatt.py's `att_pass` (MicroPython only; chosen at import by core/fixedatt.py).
+"""Viper twin of core/fixedatt.py's `FixedAttitude.step` (MicroPython only; chosen at import by core/fixedatt.py).
 
 The same integer arithmetic, step for step, as the Python `att_pass`, which stays the reference and
 the fallback; tests/portable/test_fixedatt.py runs both on the same inputs and wants every output
-bit equal. As in accel/rate.py:
+bit equal. As in accel/rate.py and accel/imufilter.py:
 
-- Floats are read and written as their float32 bits (`ptr32` on the "f" arrays): the decode
-  truncates toward zero and clamps as `fixedatt._dec`; the encode rounds to nearest, ties to even,
-  as an array store of `v / 2**q` does. No float object is made.
+- `step` is the method itself (core/fixedatt.py puts it on the class), so a pass makes no bytecode
+  call and no Python frame. The arrays are reached through a table of their buffers' addresses
+  (`bind` writes it when the stage is configured; MicroPython's collector never moves an object and
+  these arrays never grow): `ptr32(array)` each pass would be a runtime call per array. An address
+  is two 32-bit words, low then high (the high word is 0 on a 32-bit port).
+- Floats are read and written as their float32 bits: the decode truncates toward zero and clamps as
+  `fixedatt._dec`; the encode rounds to nearest, ties to even, as an array store of `v / 2**q` does,
+  its exponent from a table of floor(log2) for 0..255 (`LOG2`). No float object is made.
 - A gain or a dt times a word, `c * x / 2**s` rounded half up, is done on x's 16-bit halves
   (|c| < 2**15). A product of two wide words, `(a * b + 2**27) >> 28`, is done on 15-bit halves of
   both: a*b = ah*bh*2**30 + (ah*bl + al*bh)*2**15 + al*bl, so with |a| < 2**30, |b| < 2**29 - 2**15
@@ -18,22 +23,41 @@ bit equal. As in accel/rate.py:
   by `(v << sx) >> sx`, sx 32 there and 0 on a 32-bit port.
 - Divisions are of non-negative words only (the sign is put back after).
 
-Layouts (co, st, io, flags) are core/fixedatt.py's; the indices are repeated here as literals with
-the names in comments. st: 0..2 the gyro sum, 3 the passes summed, 4 their µs; 8..11 the quaternion
-w x y z, 12..14 the half-angle step, 15 1/|q|, 16..18 the gyro average, 20..22 the bias, 24..26 the
-accelerometer, 32..44 the products, then the angles staged for the encode.
+Layouts (co, st) are core/fixedatt.py's; the indices are repeated here as literals with the names
+in comments. st: 0..2 the gyro sum, 3 the passes summed, 4 their µs; 8..11 the quaternion w x y z,
+12..14 the half-angle step, 15 1/|q|, 16..18 the gyro average, 20..22 the bias, 24..26 the
+accelerometer, 32..44 the products, then the angles staged for the encode. The address table
+(`_tab`): co 0, st 1, gyro 2, accel 3, quaternion 4, angles 5, bias 6, LOG2 7.
 """
 
-# ptr32/int are viper's built-in casts: they exist only inside @micropython.viper code.
+# ptr8/ptr32/int are viper's built-in casts: they exist only inside @micropython.viper code.
 # ruff: noqa: F821
 
 import micropython
 
+# floor(log2(i)) for i in 1..255 (0 for 0): the encode's exponent, a byte at a time
+LOG2 = bytearray(256)
+for _i in range(2, 256):
+    LOG2[_i] = LOG2[_i >> 1] + 1
+TAB_SIZE = 16  # eight addresses of two words
+
 
 @micropython.viper
-def att_pass(co_a, st_a, io, flags: int, dt_us: int) -> int:
-    co = ptr32(co_a)
-    st = ptr32(st_a)
+def bind(tab, k: int, buf):
+    """Write the address of buf's data (an array or bytearray) into tab's entry k (two words)."""
+    t = ptr32(tab)
+    v = int(ptr32(buf))
+    t[2 * k] = v
+    t[2 * k + 1] = (v >> 16) >> 16
+
+
+@micropython.viper
+def step(self, dt_us: int, armed: int) -> int:
+    tb = ptr32(self._tab)
+    if tb[0] == 0 and tb[1] == 0:  # not configured: no addresses to write through
+        return 0
+    co = ptr32(tb[0] | ((tb[1] << 16) << 16))
+    st = ptr32(tb[2] | ((tb[3] << 16) << 16))
     one = 1
     sx = 0
     if (one << 31) > 0:
@@ -43,7 +67,7 @@ def att_pass(co_a, st_a, io, flags: int, dt_us: int) -> int:
     elif dt_us < -25000:
         dt_us = -25000
     # ---- the gyro (Q16, +-2**22) into the sum (S_GSUM 0..2)
-    src = ptr32(io[0])
+    src = ptr32(tb[4] | ((tb[5] << 16) << 16))
     j = 0
     while j < 3:
         b = src[j]
@@ -98,9 +122,9 @@ def att_pass(co_a, st_a, io, flags: int, dt_us: int) -> int:
         j += 1
     # ---- decode: quaternion (Q28, 2**28) -> st[8..11], bias (Q30, 2**29) -> st[20..22],
     # accelerometer (Q16, 2**24) -> st[24..26]
-    qa = ptr32(io[2])
-    bi = ptr32(io[4])
-    ac = ptr32(io[1])
+    ac = ptr32(tb[6] | ((tb[7] << 16) << 16))
+    qa = ptr32(tb[8] | ((tb[9] << 16) << 16))
+    bi = ptr32(tb[12] | ((tb[13] << 16) << 16))
     j = 0
     while j < 10:
         if j < 4:
@@ -288,7 +312,7 @@ def att_pass(co_a, st_a, io, flags: int, dt_us: int) -> int:
                     j += 1
                 result = 3  # R_UPDATED | R_BIAS
     # ---- the corrected rate (Q22) and the half-angle step (Q28) -> st[12..14]
-    if flags & 1:  # F_ARMED
+    if armed:
         c = co[0]
         s = co[1] + 7
     else:
@@ -467,7 +491,8 @@ def att_pass(co_a, st_a, io, flags: int, dt_us: int) -> int:
         k += 1
     st[47] = ct
     # ---- encode: q[4] = st[8..11], angles[4] = st[44..47] (Q28), bias[3] = st[20..22] (Q30)
-    ang = ptr32(io[3])
+    ang = ptr32(tb[10] | ((tb[11] << 16) << 16))
+    lg = ptr8(tb[14] | ((tb[15] << 16) << 16))
     total = 8
     if result == 3:
         total = 11
@@ -483,19 +508,17 @@ def att_pass(co_a, st_a, io, flags: int, dt_us: int) -> int:
             q = 30
         bits = 0
         if v != 0:
-            sgn = 0
             a = v
             if v < 0:
                 a = 0 - v
-                sgn = one << 31
-            pw = 0
-            tt = a
-            while tt >= 256:
-                tt = tt >> 8
-                pw += 8
-            while tt > 1:
-                tt = tt >> 1
-                pw += 1
+            if a >= 0x1000000:
+                pw = 24 + lg[a >> 24]
+            elif a >= 0x10000:
+                pw = 16 + lg[a >> 16]
+            elif a >= 0x100:
+                pw = 8 + lg[a >> 8]
+            else:
+                pw = lg[a]
             if pw > 23:
                 kk = pw - 23
                 mm = a >> kk
@@ -510,7 +533,9 @@ def att_pass(co_a, st_a, io, flags: int, dt_us: int) -> int:
                     pw += 1
             else:
                 mm = a << (23 - pw)
-            bits = sgn | ((pw - q + 127) << 23) | (mm & 0x7FFFFF)
+            bits = ((pw - q + 127) << 23) | (mm & 0x7FFFFF)
+            if v < 0:
+                bits = bits | (one << 31)
         if j < 4:
             qa[j] = bits
         elif j < 8:
@@ -518,4 +543,9 @@ def att_pass(co_a, st_a, io, flags: int, dt_us: int) -> int:
         else:
             bi[j - 8] = bits
         j += 1
+    # the float stage's own bookkeeping, as FixedAttitude.step does it in Python
+    if result == 3:
+        self._mahony._bias_zero = False
+    if self.angle_floats:
+        self._attitude.set_from_angles()
     return result

@@ -7,8 +7,9 @@ update and nothing needs handing over); gives the quaternion, the bias and `Atti
 pitch, yaw in radians and the tilt cosine) with no float object made on MicroPython, where the float
 update made about 123 of them a call (3.9 kB on the 64-bit VM). `FixedAttitude.step` runs every pass:
 it sums the gyro and, every `every` passes (att_rate_hz), updates on the average, as Flight.step does
-for the float stage. The viper twin (accel/att.py) runs on MicroPython, `att_pass` below everywhere
-else (the reference, and what tests/portable/test_fixedatt.py holds the viper twin to, bit for bit).
+for the float stage. On MicroPython the viper twin (accel/att.py) is that method itself; `att_pass`
+below runs everywhere else (the reference, and what tests/portable/test_fixedatt.py holds the viper
+twin to, bit for bit).
 
 Formats (value = integer / 2**q):
 - gyro samples and their sum Q16, clamped to +-64 rad/s (2**22; gyros saturate near 35 rad/s), the
@@ -110,14 +111,17 @@ _PAIRS = (
     (_X, _X), (_Y, _Y), (_Z, _Z), (_W, _X), (_Y, _Z), (_W, _Y), (_Z, _X), (_W, _Z), (_X, _Y),
 )
 
-_att_pass = None
+_step = None
 if IS_MICROPYTHON:
     try:
-        from hoverfly.accel.att import att_pass as _att_pass
+        from hoverfly.accel.att import LOG2 as _LOG2
+        from hoverfly.accel.att import TAB_SIZE as _TAB_SIZE
+        from hoverfly.accel.att import bind as _bind
+        from hoverfly.accel.att import step as _step
     except (SyntaxError, ImportError, NameError, ValueError):
-        _att_pass = None
+        _step = None
 
-HAS_ACCEL = _att_pass is not None
+HAS_ACCEL = _step is not None
 
 
 def coef(value, cap=40):
@@ -359,10 +363,6 @@ def att_pass(co, st, io, flags, dt_us):
     return result
 
 
-if _att_pass is None:
-    _att_pass = att_pass
-
-
 def _fill_tables(co):
     co[CO_K] = _CORDIC_K
     for i in range(N_CORDIC):
@@ -390,6 +390,8 @@ class FixedAttitude:
         # stage does: 4 floats a call, for the readers that have not moved to Attitude.angles.
         self.angle_floats = True
         self._io = None
+        # the viper twin's table of the arrays' addresses (accel/att.py), written by configure
+        self._tab = array("i", [0] * _TAB_SIZE) if HAS_ACCEL else None
         self._mahony = None
         self._attitude = None
 
@@ -411,6 +413,13 @@ class FixedAttitude:
         self._mahony = mahony
         self._attitude = attitude
         self._io = (signals.gyro_rad_s, signals.accel_m_s2, attitude.q, attitude.angles, mahony.bias_rad_s)
+        if HAS_ACCEL:
+            tab = self._tab
+            _bind(tab, 0, co)
+            _bind(tab, 1, st)
+            for k in range(5):
+                _bind(tab, 2 + k, self._io[k])
+            _bind(tab, 7, _LOG2)
         self.active = True
         return True
 
@@ -419,10 +428,17 @@ class FixedAttitude:
         self.active = False
 
     def step(self, dt_us, armed):
-        """This pass's gyro into the average, and the update when it is due (Flight.step's step 2)."""
-        r = _att_pass(self.co, self.st, self._io, F_ARMED if armed else 0, dt_us)
-        if r:
-            if r & R_BIAS:
-                self._mahony._bias_zero = False
-            if self.angle_floats:
-                self._attitude.set_from_angles()
+        """This pass's gyro into the average, and the update when it is due (Flight.step's step 2);
+        returns att_pass's result. On MicroPython the viper twin (accel/att.py `step`) stands in for
+        this method; `step_python` keeps it."""
+        r = att_pass(self.co, self.st, self._io, F_ARMED if armed else 0, dt_us)
+        if r & R_BIAS:
+            self._mahony._bias_zero = False
+        if r and self.angle_floats:
+            self._attitude.set_from_angles()
+        return r
+
+
+step_python = FixedAttitude.step
+if HAS_ACCEL:
+    FixedAttitude.step = _step
