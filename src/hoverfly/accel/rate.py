@@ -81,62 +81,76 @@ def update(self, sp, attitude, dt_us: int, i_active, airmode_active):
     sta = t[2] | ((t[3] << 16) << 16)
     co = ptr32(coa)
     st = ptr32(sta)
-    fin = ptr32(t[4] | ((t[5] << 16) << 16))
-    gy = ptr32(t[6] | ((t[7] << 16) << 16))
-    rt = ptr32(t[8] | ((t[9] << 16) << 16))
-    sk = ptr32(t[10] | ((t[11] << 16) << 16))
     one = 1
     sx = 0
     if (one << 31) > 0:
         sx = 32
     big = one << 30
-    # ---- decode: gyro[3], rate[3] (Q16), throttle (Q16), angles[4] (Q24), sticks[2] (Q15) -> st[40..52];
-    # what the mode does not read is skipped (its slot is not read either)
-    jend = 11
-    if mode >= 2:
-        jend = 13
-    j = 0
-    while j < jend:
-        if j == 3 and mode == 1:  # angle mode: the rate setpoint's roll and pitch come from the angle loop
-            j = 5
-        if j == 9 and mode == 0:  # acro: no attitude
-            j = 11
-            if jend == 11:
-                break
-        # the thresholds on the exponent e: value << (e - c) with c = 150 - q; 0 from e <= c - 24; the
-        # clamp past c + 7
+    # ---- decode: gyro[3], rate[3] (Q16), throttle (Q16), angles[4] (Q24), sticks[2] (Q15) -> st[40..52],
+    # in runs of one array and format; what the mode does not read is skipped (its slot is not read either).
+    # A run: its source address, its first slot in st, its length, and the thresholds on the exponent e:
+    # value << (e - c) with c = 150 - q; 0 from e <= c - 24; the clamp lim past c + 7
+    run = 0
+    while run < 6:
         c = 134
         lim = 0x800000
-        if j < 3:
-            b = gy[j]
-        elif j < 6:
-            b = rt[j - 3]
-        elif j < 11:
-            b = fin[j - 6]
-            if j > 6:
+        n = 3
+        if run == 0:
+            src = t[6] | ((t[7] << 16) << 16)  # gyro
+            dst = 40
+        elif run == 1:
+            src = t[8] | ((t[9] << 16) << 16)  # rate
+            dst = 43
+            if mode == 1:  # angle mode: the rate setpoint's roll and pitch come from the angle loop
+                src += 8
+                dst = 45
+                n = 1
+        else:
+            src = t[4] | ((t[5] << 16) << 16)  # fin
+            if run == 2:  # throttle
+                dst = 46
+                n = 1
+            else:
                 c = 126
                 lim = 0x4000000
-        else:
-            b = sk[j - 11]
-            c = 135
-            lim = 0x8000
-        e = (b >> 23) & 0xFF
-        if e < c:
-            v = 0
-            if e > c - 24:
-                v = ((b & 0x7FFFFF) | 0x800000) >> (c - e)
-        elif e <= c + 7:
-            v = ((b & 0x7FFFFF) | 0x800000) << (e - c)
-        elif e == 0xFF and (b & 0x7FFFFF) != 0:  # NaN
-            v = 0
-        else:  # past the clamp, or infinite
-            v = lim
-        if v > lim:  # a stick of 1 or more is within the shifts
-            v = lim
-        if (b >> 31) & 1:
-            v = 0 - v
-        st[40 + j] = v
-        j += 1
+                n = 2
+                if run == 3:  # the angle setpoints
+                    src += 4
+                    dst = 47
+                elif run == 4:  # the attitude: not in acro
+                    src += 12
+                    dst = 49
+                    if mode == 0:
+                        n = 0
+                else:  # the sticks: horizon only
+                    src = t[10] | ((t[11] << 16) << 16)
+                    dst = 51
+                    c = 135
+                    lim = 0x8000
+                    if mode < 2:
+                        n = 0
+        sr = ptr32(src)
+        j = 0
+        while j < n:
+            b = sr[j]
+            e = (b >> 23) & 0xFF
+            if e < c:
+                v = 0
+                if e > c - 24:
+                    v = ((b & 0x7FFFFF) | 0x800000) >> (c - e)
+            elif e <= c + 7:
+                v = ((b & 0x7FFFFF) | 0x800000) << (e - c)
+            elif e == 0xFF and (b & 0x7FFFFF) != 0:  # NaN
+                v = 0
+            else:  # past the clamp, or infinite
+                v = lim
+            if v > lim:  # a stick of 1 or more is within the shifts
+                v = lim
+            if (b >> 31) & 1:
+                v = 0 - v
+            st[dst + j] = v
+            j += 1
+        run += 1
     # ---- dt, clamped; 1/dt when it changes (S_DT 26, S_INV_DT 27; DT_NOMINAL 12)
     if dt_us <= 0:
         dt_us = co[12]
@@ -484,63 +498,78 @@ def update(self, sp, attitude, dt_us: int, i_active, airmode_active):
         m += 1
     sat_was = st[29]
     st[29] = sat
-    # ---- encode: terms[12], torque[3], motor[n], then the angle loop's rate[2] -> float32 bits
-    terms = ptr32(t[12] | ((t[13] << 16) << 16))
-    tq = ptr32(t[14] | ((t[15] << 16) << 16))
-    mo = ptr32(t[16] | ((t[17] << 16) << 16))
-    lg = ptr8(t[18] | ((t[19] << 16) << 16))
-    nout = 15 + n
-    total = nout
+    # ---- encode: terms[12], torque[3], motor[n], then the angle loop's rate[2] -> float32 bits, in runs of
+    # one array and format: the staged words st[src..], the exponent's bias 127 - q (q 26 for the I-terms)
     if mode != 0:
         st[68 + n] = sp0
         st[69 + n] = sp1
-        total = nout + 2
-    j = 0
-    while j < total:
-        v = (st[53 + j] << sx) >> sx
-        bits = 0
-        if v != 0:
-            a = v
-            if v < 0:
-                a = 0 - v
-            if a >= 0x10000:
-                if a >= 0x1000000:
-                    pw = 24 + lg[a >> 24]
-                else:
-                    pw = 16 + lg[a >> 16]
-            elif a >= 0x100:
-                pw = 8 + lg[a >> 8]
-            else:
-                pw = lg[a]
-            if pw > 23:
-                kk = pw - 23
-                mm = a >> kk
-                rem = a - (mm << kk)
-                half = one << (kk - 1)
-                if rem > half:
-                    mm += 1
-                elif rem == half and (mm & 1):
-                    mm += 1
-                if mm >= 0x1000000:
-                    mm = mm >> 1
-                    pw += 1
-            else:
-                mm = a << (23 - pw)
-            # the exponent: pw - q + 127, q 26 for the I-terms (j 3..5), else 16
-            if j >= 3 and j < 6:
-                pw -= 10
-            bits = ((pw + 111) << 23) | (mm & 0x7FFFFF)
-            if v < 0:
-                bits = bits | (one << 31)
-        if j < 12:
-            terms[j] = bits
-        elif j < 15:
-            tq[j - 12] = bits
-        elif j < nout:
-            mo[j - 15] = bits
+    lg = ptr8(t[18] | ((t[19] << 16) << 16))
+    run = 0
+    while run < 6:
+        eb = 111
+        cnt = 3
+        if run < 3:
+            dst = t[12] | ((t[13] << 16) << 16)  # terms
+            src = 53
+            if run == 1:
+                dst += 12
+                src = 56
+                eb = 101
+            elif run == 2:
+                dst += 24
+                src = 59
+                cnt = 6
+        elif run == 3:
+            dst = t[14] | ((t[15] << 16) << 16)  # torque
+            src = 65
+        elif run == 4:
+            dst = t[16] | ((t[17] << 16) << 16)  # motor
+            src = 68
+            cnt = n
         else:
-            rt[j - nout] = bits
-        j += 1
+            dst = t[8] | ((t[9] << 16) << 16)  # rate: the angle loop's roll and pitch
+            src = 68 + n
+            cnt = 2
+            if mode == 0:
+                cnt = 0
+        o = ptr32(dst)
+        j = 0
+        while j < cnt:
+            v = (st[src + j] << sx) >> sx
+            bits = 0
+            if v != 0:
+                a = v
+                if v < 0:
+                    a = 0 - v
+                if a >= 0x10000:
+                    if a >= 0x1000000:
+                        pw = 24 + lg[a >> 24]
+                    else:
+                        pw = 16 + lg[a >> 16]
+                elif a >= 0x100:
+                    pw = 8 + lg[a >> 8]
+                else:
+                    pw = lg[a]
+                if pw > 23:
+                    kk = pw - 23
+                    mm = a >> kk
+                    rem = a - (mm << kk)
+                    half = one << (kk - 1)
+                    if rem > half:
+                        mm += 1
+                    elif rem == half and (mm & 1):
+                        mm += 1
+                    if mm >= 0x1000000:
+                        mm = mm >> 1
+                        pw += 1
+                else:
+                    mm = a << (23 - pw)
+                bits = ((pw + eb) << 23) | (mm & 0x7FFFFF)
+                if v < 0:
+                    bits = bits | (one << 31)
+            o[j] = bits
+            j += 1
+        run += 1
     if sat != sat_was:
         if sat:
             self._mixer.saturated = True
