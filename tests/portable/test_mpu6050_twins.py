@@ -124,12 +124,14 @@ def _expect(drv, burst):
 def test_micropython_picks_the_viper_read_and_cpython_the_python_one():
     if IS_MICROPYTHON:
         assert mpu6050._read_burst is mpu_viper.read_burst
+        assert mpu6050.MPU6050.read is mpu_viper.read and mpu6050.read_python is not mpu_viper.read
         names = ("ST_OFF", "ST_FLIP", "ST_BIAS", "ST_GYRO_M", "ST_GYRO_E", "ST_ACCEL_M", "ST_ACCEL_E",
                  "ST_SCALED", "ST_LAST", "ST_SAME", "ST_PREV", "ST_TEMP", "ST_RAW", "BIAS_OFFSET", "SAME_CAP")
         for name in names:
             assert getattr(mpu_viper, name) == getattr(mpu6050, name), name
     else:
         assert mpu6050._read_burst is mpu6050.read_burst
+        assert mpu6050.MPU6050.read is mpu6050.read_python
 
 
 def test_twins_agree_on_random_and_edge_bursts_for_every_mount_and_range():
@@ -244,6 +246,34 @@ def test_configured_scales_are_float32_within_one_step_of_the_float64_product():
                     if d > worst:
                         worst = d
     assert worst == 1  # it does move some values (so this test can tell)
+
+
+def _state(drv):
+    return (drv.temp_raw, drv.samples, drv.bus_errors, drv.frozen, drv.frozen_count, drv.saturated,
+            drv.saturated_count, list(drv._st))
+
+
+def test_read_method_twins_agree_on_values_counters_and_bus_errors():
+    """MPU6050.read (the viper method on MicroPython) against read_python, two drivers fed alike:
+    random bursts, repeats (frozen), rails (saturated), bus errors, a general alignment."""
+    rnd = Lcg(6)
+    for orientation in (Orientation(CW270_FLIP), Orientation(CW0, 0.1, -0.2, 0.3)):
+        bus_a, a = _driver(CW0, 1000, 8, (-77, 5, 1234), orientation)
+        bus_b, b = _driver(CW0, 1000, 8, (-77, 5, 1234), orientation)
+        for k in range(300):
+            if k % 40 >= 12:  # else the same burst again: the frozen watch counts
+                rnd.fill(bus_a.burst, 0, 14)
+                if k % 7 == 0:  # a rail: 0x7FFF, 0x8000 or 0x8001
+                    i = 2 * rnd.below(7)
+                    bus_a.burst[i:i + 2] = (b"\x7f\xff", b"\x80\x00", b"\x80\x01")[rnd.below(3)]
+            bus_b.burst[:] = bus_a.burst
+            bus_a.fail = bus_b.fail = k % 53 == 5
+            ga, aa = array("f", [3.0] * 3), array("f", [3.0] * 3)
+            gb, ab = array("f", [3.0] * 3), array("f", [3.0] * 3)
+            assert a.read(ga, aa) == mpu6050.read_python(b, gb, ab)
+            assert _bits(ga) == _bits(gb) and _bits(aa) == _bits(ab), k
+            assert _state(a) == _state(b), (k, _state(a), _state(b))
+        assert a.frozen_count > 0 and a.saturated_count > 0 and a.bus_errors > 0
 
 
 def test_read_keeps_frozen_saturated_and_bus_error_counts():

@@ -1,4 +1,11 @@
-"""Viper twin of the MPU-6050 burst read (MicroPython only; chosen at import by drivers/mpu6050.py).
+"""Viper twins of the MPU-6050 read (MicroPython only; chosen at import by drivers/mpu6050.py).
+
+- `read(self, gyro_rad_s, accel_m_s2)` is MPU6050.read itself on MicroPython (the driver puts it
+  on the class; `read_python` keeps the bytecode one, which it matches: the transfer, OSError
+  counted in bus_errors, read_burst, the rare flags through MPU6050._finish, temp_raw, samples).
+  A viper method makes no bytecode frame: read_python's 12 words would be taken from the heap at
+  every call (py/objfun.c VM_MAX_STATE_ON_STACK is 11).
+- `read_burst(buf, st, gyro, accel)`, below.
 
 Takes the 14-byte burst from ACCEL_XOUT_H (big-endian int16: accel X/Y/Z, TEMP, gyro X/Y/Z;
 RM-MPU-6000A-00 §4.17-4.19) and the driver's plan and watch state (array('i'), the layout
@@ -222,3 +229,19 @@ def read_burst(buf, st, gyro, accel) -> int:
         return 1
     s[ST_PREV] = flags
     return flags
+
+
+@micropython.viper
+def read(self, gyro_rad_s, accel_m_s2) -> bool:
+    try:
+        self._bus.readfrom_mem_into(self.address, 0x3B, self._buf)  # ACCEL_XOUT_H, RM §4.17
+    except OSError:
+        self.bus_errors = int(self.bus_errors) + 1
+        return False
+    st = self._st
+    if int(read_burst(self._buf, st, gyro_rad_s, accel_m_s2)):
+        self._finish(gyro_rad_s, accel_m_s2)
+    t = ptr32(st)[ST_TEMP] & 0xFFFF  # an int16 (a ptr32 load is zero-extended on a 64-bit port)
+    self.temp_raw = (t ^ 0x8000) - 0x8000
+    self.samples = int(self.samples) + 1
+    return True

@@ -127,11 +127,14 @@ def float32(x):
 
 # The viper twin on MicroPython (accel/mpu6050.py), else the Python one above; tested equal.
 _read_burst = read_burst
+_read = None
 if IS_MICROPYTHON:
     try:
+        from hoverfly.accel.mpu6050 import read as _read
         from hoverfly.accel.mpu6050 import read_burst as _read_burst
     except (SyntaxError, ImportError, NameError, ValueError):
         _read_burst = read_burst
+        _read = None
 
 ADDRESS = 0x68  # AD0 low (RM §4.32 WHO_AM_I note; seed 000)
 ADDRESS_ALT = 0x69  # AD0 high
@@ -290,24 +293,19 @@ class MPU6050(Imu):
 
         False (arrays untouched) on a bus error, which is counted in bus_errors.
         """
-        # A frame over 11 words is taken from the heap (and freed) at every call (MicroPython
-        # objfun.c VM_MAX_STATE_ON_STACK). A try block is 3 words and 5 of stack; `except OSError`
-        # takes 1 more and `+=` in the handler another: with the bare except and the count in
-        # _bus_error this frame is 11. Any exception out of the transfer counts as a bus error.
+        # On MicroPython the viper twin (accel/mpu6050.py `read`) stands in for this method (no
+        # bytecode frame: this one's 12 words would be taken from the heap at every call, py/objfun.c
+        # VM_MAX_STATE_ON_STACK); `read_python` keeps it.
         try:
             self._bus.readfrom_mem_into(self.address, _ACCEL_XOUT_H, self._buf)
-        except:  # noqa: E722
-            return self._bus_error()
+        except OSError:
+            self.bus_errors += 1
+            return False
         if _read_burst(self._buf, self._st, gyro_rad_s, accel_m_s2):
             self._finish(gyro_rad_s, accel_m_s2)
         self.temp_raw = self._st[ST_TEMP]
         self.samples += 1
         return True
-
-    def _bus_error(self):
-        """read()'s failed transfer: counted in bus_errors; read() returns this (False)."""
-        self.bus_errors += 1
-        return False
 
     def _finish(self, gyro_rad_s, accel_m_s2):
         """read()'s rare half: the flags of a frozen, saturated or just-recovered sample, and the
@@ -352,3 +350,8 @@ class MPU6050(Imu):
     def calibrate(self, samples=500, discard=500, still_dps=4.0, sample_delay_us=1000):
         """Seed 000 boot calibration; see Imu.calibrate_gyro. True if it stayed still."""
         return self.calibrate_gyro(samples, discard, still_dps, sample_delay_us)
+
+
+read_python = MPU6050.read
+if _read is not None:
+    MPU6050.read = _read
