@@ -125,8 +125,10 @@ def update(self):
             bits = 0
             if v != 0:
                 a = v
+                sg = 0
                 if v < 0:
                     a = 0 - v
+                    sg = one << 31
                 if a >= 0x10000:
                     if a >= 0x1000000:  # 2**24 itself (the state's bound): exact
                         pw = 24
@@ -140,9 +142,8 @@ def update(self):
                     mm = a >> (pw - 23)
                 else:
                     mm = a << (23 - pw)
-                bits = ((pw + 111) << 23) | (mm & 0x7FFFFF)
-                if v < 0:
-                    bits = bits | (one << 31)
+                # the mantissa's leading one carries into the exponent field: added, not masked
+                bits = (((pw + 110) << 23) + mm) | sg
             if j == 0:
                 gout[i] = bits
             else:

@@ -533,14 +533,17 @@ def update(self, sp, attitude, dt_us: int, i_active, airmode_active):
             if mode == 0:
                 cnt = 0
         o = ptr32(dst)
+        eb -= 1  # the mantissa's leading one carries into the exponent field: added, not masked
         j = 0
         while j < cnt:
             v = (st[src + j] << sx) >> sx
             bits = 0
             if v != 0:
                 a = v
+                sg = 0
                 if v < 0:
                     a = 0 - v
+                    sg = one << 31
                 if a >= 0x10000:
                     if a >= 0x1000000:
                         pw = 24 + lg[a >> 24]
@@ -564,9 +567,7 @@ def update(self, sp, attitude, dt_us: int, i_active, airmode_active):
                         pw += 1
                 else:
                     mm = a << (23 - pw)
-                bits = ((pw + eb) << 23) | (mm & 0x7FFFFF)
-                if v < 0:
-                    bits = bits | (one << 31)
+                bits = (((pw + eb) << 23) + mm) | sg
             o[j] = bits
             j += 1
         run += 1
