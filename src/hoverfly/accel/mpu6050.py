@@ -1,19 +1,20 @@
-"""Viper twins of the MPU-6050 read (MicroPython only; chosen at import by drivers/mpu6050.py).
+"""Viper twin of MPU6050.read (MicroPython only; chosen at import by drivers/mpu6050.py).
 
-- `read(self, gyro_rad_s, accel_m_s2)` is MPU6050.read itself on MicroPython (the driver puts it
-  on the class; `read_python` keeps the bytecode one, which it matches: the transfer, OSError
-  counted in bus_errors, read_burst, the rare flags through MPU6050._finish, temp_raw, samples).
-  A viper method makes no bytecode frame: read_python's 12 words would be taken from the heap at
-  every call (py/objfun.c VM_MAX_STATE_ON_STACK is 11).
-- `read_burst(buf, st, gyro, accel)`, below.
+`read(self, gyro_rad_s, accel_m_s2)` is MPU6050.read itself on MicroPython: the driver puts it on
+the class, and `read_python` (the bytecode method, with drivers/mpu6050.py `read_burst`, its
+pure-Python twin, inline here) stays the reference and the fallback wherever viper is missing
+(CPython, the wasm port). Bit for bit the same: the 14-byte burst from ACCEL_XOUT_H (big-endian
+int16: accel X/Y/Z, TEMP, gyro X/Y/Z; RM-MPU-6000A-00 §4.17-4.19), an OSError counted in
+bus_errors, the frozen/saturated watch in the driver's state array (`_st`, the layout
+drivers/mpu6050.py declares as ST_*), the rare flags through MPU6050._finish, temp_raw, samples,
+and for an axis-map plan the body-frame (FRD) gyro in rad/s and accel in m/s² written into the
+caller's array('f')s as float32 bit patterns, so a read makes no float objects.
 
-Takes the 14-byte burst from ACCEL_XOUT_H (big-endian int16: accel X/Y/Z, TEMP, gyro X/Y/Z;
-RM-MPU-6000A-00 §4.17-4.19) and the driver's plan and watch state (array('i'), the layout
-drivers/mpu6050.py declares as ST_*); gives what drivers/mpu6050.py `read_burst`, its pure-Python
-twin, gives, bit for bit: the frozen/saturated watch in the state, TEMP_OUT, and for an axis-map
-plan the body-frame (FRD) gyro in rad/s and accel in m/s² written into the caller's array('f')s
-as float32 bit patterns, so a read makes no float objects. The Python twin stays the reference
-and the fallback wherever viper is missing (CPython, the wasm port).
+A viper method makes no bytecode frame (read_python's 12 words would be taken from the heap at
+every call: py/objfun.c VM_MAX_STATE_ON_STACK is 11) and reaches the driver's burst buffer and
+state through a table of their addresses (`bind`, written once by the driver's constructor:
+MicroPython's collector never moves an object, and the two are never replaced or resized), so
+the only runtime calls are the transfer, the attribute traffic and the two output arrays' casts.
 
 The scaling: each value is an integer n (sign * count, or sign * (gyro * 16 - bias)) times the
 scale k held as float32 (mantissa m with its hidden bit, biased exponent e). The float32 nearest
@@ -24,7 +25,7 @@ built from 12-bit pieces as hi * 2**24 + lo, then rounded to 24 bits by hand. Th
 pattern goes straight into the array: sign << 31, exponent e + the bits dropped, mantissa.
 
 It sits at the start of the pass (board.read_imu -> MPU6050.read). Viper reads and writes raw
-memory: buf must hold 14 bytes, st must be the driver's array('i') of ST_SIZE, gyro and accel
+memory: the driver's own 14-byte buffer and array('i') of ST_SIZE, and the caller's gyro and accel
 array('f')s of at least 3 (little-endian IEEE float32, as on every target). Viper ints are 32-bit
 on the RP2040/RP2350: the plan keeps |bias| < 2**20 and the scales within 2**-100..2**100
 (MPU6050._plan leaves anything else to Python), so |n| < 2**21, the exponent field stays within
@@ -59,9 +60,24 @@ SAME_CAP = const(16777216)  # 2**24: the same-sample count stops here (the flags
 
 
 @micropython.viper
-def read_burst(buf, st, gyro, accel) -> int:
-    b = ptr8(buf)
-    s = ptr32(st)
+def bind(tab, k: int, buf):
+    """Write the address of buf's data (an array or bytearray) into tab's entry k (two words)."""
+    t = ptr32(tab)
+    v = int(ptr32(buf))
+    t[2 * k] = v
+    t[2 * k + 1] = (v >> 16) >> 16
+
+
+@micropython.viper
+def read(self, gyro_rad_s, accel_m_s2) -> bool:
+    try:
+        self._bus.readfrom_mem_into(self.address, 0x3B, self._buf)  # ACCEL_XOUT_H, RM §4.17
+    except OSError:
+        self.bus_errors = int(self.bus_errors) + 1
+        return False
+    tab = ptr32(self._tab)  # _buf's and _st's addresses (bind), two words each: low, high
+    b = ptr8(tab[0] | ((tab[1] << 16) << 16))
+    s = ptr32(tab[2] | ((tab[3] << 16) << 16))
     # Frozen and saturated watch on the six raw words, chip order (TEMP at bytes 6..7 is not
     # watched); written out, six times, as a loop here costs a tenth of the call more.
     same = 1
@@ -110,7 +126,8 @@ def read_burst(buf, st, gyro, accel) -> int:
     s[ST_SAME] = count
     flags = (count << 3) | (sat << 2)
     v = (b[6] << 8) | b[7]
-    s[ST_TEMP] = (v ^ 0x8000) - 0x8000
+    temp = (v ^ 0x8000) - 0x8000
+    s[ST_TEMP] = temp
     if s[ST_SCALED] == 0:
         i = 0
         j = ST_RAW
@@ -132,8 +149,8 @@ def read_burst(buf, st, gyro, accel) -> int:
         gmh = gm >> 12
         gml = gm & 0xFFF
         ge = s[ST_GYRO_E]
-        ga = ptr32(gyro)
-        aa = ptr32(accel)
+        ga = ptr32(gyro_rad_s)
+        aa = ptr32(accel_m_s2)
         axis = 0
         while axis < 3:
             off = s[ST_OFF + axis]
@@ -226,22 +243,11 @@ def read_burst(buf, st, gyro, accel) -> int:
             axis += 1
     if flags == 0 and s[ST_PREV] != 0:
         s[ST_PREV] = 0
-        return 1
-    s[ST_PREV] = flags
-    return flags
-
-
-@micropython.viper
-def read(self, gyro_rad_s, accel_m_s2) -> bool:
-    try:
-        self._bus.readfrom_mem_into(self.address, 0x3B, self._buf)  # ACCEL_XOUT_H, RM §4.17
-    except OSError:
-        self.bus_errors = int(self.bus_errors) + 1
-        return False
-    st = self._st
-    if int(read_burst(self._buf, st, gyro_rad_s, accel_m_s2)):
+        flags = 1
+    else:
+        s[ST_PREV] = flags
+    if flags:
         self._finish(gyro_rad_s, accel_m_s2)
-    t = ptr32(st)[ST_TEMP] & 0xFFFF  # an int16 (a ptr32 load is zero-extended on a 64-bit port)
-    self.temp_raw = (t ^ 0x8000) - 0x8000
+    self.temp_raw = temp
     self.samples = int(self.samples) + 1
     return True

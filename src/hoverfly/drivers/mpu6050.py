@@ -53,7 +53,7 @@ _K_MAX = 2.0 ** 100
 
 
 def read_burst(buf, st, gyro_rad_s, accel_m_s2):
-    """The burst's watch and decode; the pure-Python twin of accel/mpu6050.py read_burst.
+    """The burst's watch and decode for read_python; accel/mpu6050.py `read` does the same inline.
 
     buf: the 14-byte burst from ACCEL_XOUT_H (big-endian int16, RM §4.17-4.19: _H register first).
     st: MPU6050's array('i') of ST_SIZE (plan, then the watch state). Updates the watch (the same
@@ -125,16 +125,16 @@ def float32(x):
     return array("f", (x,))[0]
 
 
-# The viper twin on MicroPython (accel/mpu6050.py), else the Python one above; tested equal.
-_read_burst = read_burst
+# On MicroPython the viper twin of MPU6050.read (accel/mpu6050.py: read_burst's work, inline) and
+# its address table's writer; else None and the Python read below. Tested equal.
 _read = None
+_bind = None
 if IS_MICROPYTHON:
     try:
+        from hoverfly.accel.mpu6050 import bind as _bind
         from hoverfly.accel.mpu6050 import read as _read
-        from hoverfly.accel.mpu6050 import read_burst as _read_burst
     except (SyntaxError, ImportError, NameError, ValueError):
-        _read_burst = read_burst
-        _read = None
+        _read = _bind = None
 
 ADDRESS = 0x68  # AD0 low (RM §4.32 WHO_AM_I note; seed 000)
 ADDRESS_ALT = 0x69  # AD0 high
@@ -187,6 +187,12 @@ class MPU6050(Imu):
         self.rate_hz = 0
         self._raw_gx = self._raw_gy = self._raw_gz = 0
         self._st = array("i", [0] * ST_SIZE)  # read_burst's plan and watch state (ST_*)
+        if _bind is not None:
+            # the viper read's table of _buf's and _st's addresses: MicroPython's collector never
+            # moves an object, and these two are never replaced or resized while the driver lives
+            self._tab = array("i", [0] * 4)
+            _bind(self._tab, 0, self._buf)
+            _bind(self._tab, 1, self._st)
         self._plan()
 
     def probe(self):
@@ -301,7 +307,7 @@ class MPU6050(Imu):
         except OSError:
             self.bus_errors += 1
             return False
-        if _read_burst(self._buf, self._st, gyro_rad_s, accel_m_s2):
+        if read_burst(self._buf, self._st, gyro_rad_s, accel_m_s2):
             self._finish(gyro_rad_s, accel_m_s2)
         self.temp_raw = self._st[ST_TEMP]
         self.samples += 1
