@@ -82,7 +82,7 @@ def update(self):
                 b = araw[i]
                 lim = 0x1000000
             e = (b >> 23) & 0xFF
-            if e < 134:  # |value| < 1: shifted right, or 0 below 2**-16
+            if e < 134:  # |value| < 128, inside the clamps: shifted right, or 0 below 2**-16
                 v = 0
                 if e > 110:
                     v = ((b & 0x7FFFFF) | 0x800000) >> (134 - e)

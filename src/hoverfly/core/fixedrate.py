@@ -510,6 +510,7 @@ class FixedRate:
         self._mixer.saturated = st[S_SAT] != 0
 
     def _tpa_changed(self):
+        """The controller's TPA factor from the pass's (the viper twin calls this only when it changed)."""
         self._controller.tpa = self.st[S_TPA] * _INV15
 
     def update(self, sp, attitude, dt_us, i_active, airmode_active):
