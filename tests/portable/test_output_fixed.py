@@ -77,8 +77,8 @@ def test_the_viper_twin_gives_the_python_twins_bits():
         rnd = Lcg(23)
         for n in range(1500):
             _demands(rnd, n, na, nb)
-            ca = output_mod.motors_fixed(na, oa, 8, st._idle_q16, st._span_q14)
-            cb = output_viper.motors_fixed(nb, ob, 8, st._idle_q16, st._span_q14)
+            ca = output_mod.motors_fixed(na, oa, st._fixed_plan)
+            cb = output_viper.motors_fixed(nb, ob, st._fixed_plan)
             assert ca == cb, (sets, n, ca, cb)
             for k in range(8):
                 assert oa[k] == ob[k], (sets, n, k, na[k], oa[k], ob[k])

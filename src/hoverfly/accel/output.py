@@ -20,9 +20,13 @@ import micropython
 
 
 @micropython.viper
-def motors_fixed(norm_a, out_a, n: int, idle: int, span: int) -> int:
+def motors_fixed(norm_a, out_a, plan_a) -> int:
     norm = ptr32(norm_a)
     out = ptr32(out_a)
+    plan = ptr32(plan_a)  # array('i'): motors, idle Q16, span Q14 (none negative)
+    n = int(plan[0])
+    idle = int(plan[1])
+    span = int(plan[2])
     one = 1
     low31 = (one << 31) - 1  # 0x7FFFFFFF and 0x7F800000 (+inf): no constant of 2**30 or more, which is
     inf = ((one << 8) - 1) << 23  # not a small int on a 32-bit port

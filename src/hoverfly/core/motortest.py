@@ -107,11 +107,15 @@ class MotorTest:
 
     def update(self, now_us, armed, arm_switch, link_ok, motor_out):
         """Each pass: end the test on arming, link loss or expiry; else write its values to motor_out."""
+        # The flight's every pass (no test) only notes the two inputs. Few locals and a shallow stack:
+        # a MicroPython function needing more than 11 slots gets its frame from the heap on every call.
+        if not self.active:
+            self._link_was_ok = link_ok
+            self._arm_switch = arm_switch
+            return False
         link_lost = self._link_was_ok and not link_ok
         self._link_was_ok = link_ok
         self._arm_switch = arm_switch
-        if not self.active:
-            return False
         # SAFETY: a motor test never runs armed, and gives way to any arming attempt or lost link.
         if armed:
             self.stop(STOP_ARMED)
@@ -122,6 +126,10 @@ class MotorTest:
         if link_lost:
             self.stop(STOP_LINK)
             return False
+        return self._write(now_us, motor_out)
+
+    def _write(self, now_us, motor_out):
+        """Expire motors not refreshed in time; the rest's test values to motor_out."""
         values = self.values
         refreshed = self._refreshed_us
         expired = False

@@ -40,6 +40,8 @@ from hoverfly.protocols.dshot import (
     DshotEncoder,
     ErpmDecoder,
     dshot_frame,
+    encode_planned,
+    encode_planned_f32,
 )
 
 # The `motor_protocol` choices: dshot150, dshot300, dshot600, dshot1200, oneshot125, oneshot42,
@@ -60,10 +62,13 @@ if IS_MICROPYTHON:
 HAS_ACCEL = _motors_fixed is not None
 
 
-def motors_fixed(norm, out, n, idle, span):
-    """out[i] = idle + span * clamp(norm[i], 0, 1) in fixed point (idle Q16, span Q14, the demand
-    truncated to Q16); returns how many demands were clamped (outside 0..1 or NaN). The Python
-    twin of accel/output.py."""
+def motors_fixed(norm, out, plan):
+    """out[i] = idle + span * clamp(norm[i], 0, 1) for i < n in fixed point (plan: array('i') of n,
+    idle Q16, span Q14; the demand truncated to Q16); returns how many demands were clamped (outside
+    0..1 or NaN). The Python twin of accel/output.py."""
+    n = plan[0]
+    idle = plan[1]
+    span = plan[2]
     clamped = 0
     for i in range(n):
         m = norm[i]
@@ -139,6 +144,7 @@ class OutputStage:
         self._span = 1.0 - 0.055
         self._idle_q16 = 3604
         self._span_q14 = 15483
+        self._fixed_plan = array("i", [4, 3604, 15483])  # motors_fixed's: motors, idle Q16, span Q14
         self.clamped = 0  # motor demand outside 0..1 or NaN
         self.bidir = False
         self.error = ""  # a configuration the board's encoder will also refuse (e.g. motor_order)
@@ -156,6 +162,10 @@ class OutputStage:
         self._span = self.motor_max - self.idle  # once here, not a float per pass
         self._idle_q16 = int(self.idle * 65536.0 + 0.5)  # update_fixed's
         self._span_q14 = int(self._span * 16384.0 + 0.5)
+        plan = self._fixed_plan
+        plan[0] = motor_count
+        plan[1] = self._idle_q16
+        plan[2] = self._span_q14
         self.bidir = dshot_speed_kbit(params.get("motor_protocol")) > 0 and params.get("dshot_bidir") == 1
         poles = params.get("motor_poles")
         for d in self.decoders:
@@ -184,12 +194,17 @@ class OutputStage:
     def update_fixed(self, motor_norm, armed, motor_out):
         """`update` in fixed point (with the fixed rate loop): the same clamps and counts, commands
         within 2**-14 of update's, no float made where the viper twin runs."""
-        n = self.motor_count
+        # Few locals (see OutputEncoder.write): the pass's every call stays off the heap.
         if not armed:
-            for i in range(n):
-                motor_out[i] = 0.0
+            self._stop(motor_out)
             return
-        self.clamped += _motors_fixed(motor_norm, motor_out, n, self._idle_q16, self._span_q14)
+        c = _motors_fixed(motor_norm, motor_out, self._fixed_plan)
+        if c:
+            self.clamped += c
+
+    def _stop(self, motor_out):
+        for i in range(self.motor_count):
+            motor_out[i] = 0.0
 
     def servos(self, servo_in, count, armed, servo_out):
         """Servo positions -1..1 (clamped, counted); centre while disarmed."""
@@ -248,7 +263,6 @@ class OutputEncoder:
         self.servo_us = array("f", [1500.0] * MAX_SERVOS)
         self.line_of_motor = bytes(range(MAX_MOTORS))
         self.motor_of_line = bytes(range(MAX_MOTORS))
-        self._in_order = True
         self.reversed_mask = 0
         self.rate_hz = 480
         self.min_us = 1000.0
@@ -265,10 +279,11 @@ class OutputEncoder:
         self.failsafe_trips = 0
         self.failsafe_at_us = 0
         self._last_us = 0
-        self._written = False
+        self._writes_at_configure = 0  # writes == this: nothing written since configure
         self._stop_word = 0
         self._dshot_enc = DshotEncoder(MAX_MOTORS, False, 0.0, True)
-        self._scratch = array("H", [0] * MAX_MOTORS)
+        self._plan = self._dshot_enc.plan(self.line_of_motor)
+        self._f32 = None  # the last motor_out seen to be an array('f'): the viper encode reads its bits
         self.commands = DshotCommandQueue(False, 2 + MAX_MOTORS)
 
     # ------------------------------------------------------------------ set-up
@@ -291,8 +306,6 @@ class OutputEncoder:
         if err:
             errors.append(err)
         self.line_of_motor = order
-        # motor m on line m (motor_order 0): write() encodes straight into `words`
-        self._in_order = order == bytes(range(motor_count))
         inv = bytearray(range(MAX_MOTORS))
         for m in range(motor_count):
             inv[order[m]] = m
@@ -302,6 +315,7 @@ class OutputEncoder:
         self.rate_hz = params.get("motor_pwm_rate")
         if self.dshot:
             self._dshot_enc = DshotEncoder(motor_count, self.bidir, 0.0, True)
+            self._plan = self._dshot_enc.plan(order)
             self._stop_word = dshot_frame(0, 0, self.bidir)
         else:
             err = analog.validate_rate(self.analog, self.rate_hz)
@@ -327,7 +341,8 @@ class OutputEncoder:
         if self.dshot:
             self._queue_boot_commands()
         self._last_us = now_us
-        self._written = False
+        self._writes_at_configure = self.writes
+        self._f32 = None
         self.failsafe = False
         self._set_disarmed()
 
@@ -362,43 +377,59 @@ class OutputEncoder:
     # ---------------------------------------------------------------- the pass
     def write(self, motor_out, count, now_us):
         """Encode motor_out[0..count-1] (0 = stop, otherwise idle..1) onto the lines; a fresh command."""
+        # Few locals: a MicroPython function whose locals and stack pass 11 slots gets its frame from
+        # the heap on every call (allocated and freed: no bytes remain, the allocator's work does).
+        if self.dshot:
+            # One call encodes every motor onto its line (DshotEncoder.plan); on MicroPython the viper
+            # twin reads an array('f')'s float32 bits and makes no float.
+            if motor_out is self._f32 or self._takes_bits(motor_out):
+                r = encode_planned_f32(motor_out, count, self._plan, self.words)
+            else:
+                r = encode_planned(motor_out, count, self._plan, self.words)
+            if r > 0xFF:
+                self._count_clamped(r >> 8)
+            # DShot commands go out only while every motor is stopped; a spinning motor drops them.
+            # Idle (the flight's every pass) there is nothing to send or abort: not even the call.
+            if self.commands.pending:
+                self.commands.apply(now_us, r & 0xFF != 0, self.words)
+        else:
+            self._write_analog(motor_out, count)
+        self._last_us = now_us
+        self.failsafe = False
+        self.writes += 1
+
+    def _count_clamped(self, n):
+        self._dshot_enc.clamped += n
+        self.clamped += n
+
+    def _write_analog(self, motor_out, count):
         n = self.motor_count
         if count < n:
             n = count
         lines = self.line_of_motor
-        if self.dshot:
-            enc = self._dshot_enc
-            before = enc.clamped
-            enc.motor_count = n
-            words = self.words
-            if self._in_order:
-                spinning = enc.encode_motors(motor_out, True, words) > 0
-            else:
-                scratch = self._scratch
-                spinning = enc.encode_motors(motor_out, True, scratch) > 0
-                for m in range(n):
-                    words[lines[m]] = scratch[m]
-            if enc.clamped != before:
-                self.clamped += enc.clamped - before
-            # DShot commands go out only while every motor is stopped; a spinning motor drops them.
-            self.commands.apply(now_us, spinning, words)
-        else:
-            p = self.pulse_us
-            lo = self.min_us
-            span = self.len_us
-            for m in range(n):
-                t = motor_out[m]
-                if t > 1.0:
-                    t = 1.0
-                    self.clamped += 1
-                elif not (t >= 0.0):
-                    t = 0.0
-                    self.clamped += 1
-                p[lines[m]] = lo + span * t
-        self._last_us = now_us
-        self._written = True
-        self.failsafe = False
-        self.writes += 1
+        p = self.pulse_us
+        lo = self.min_us
+        span = self.len_us
+        for m in range(n):
+            t = motor_out[m]
+            if t > 1.0:
+                t = 1.0
+                self.clamped += 1
+            elif not (t >= 0.0):
+                t = 0.0
+                self.clamped += 1
+            p[lines[m]] = lo + span * t
+
+    def _takes_bits(self, motor_out):
+        """True (and remembered) when the viper encode may read motor_out's bits: an array of 4-byte
+        floats. Anything else (a list, array('d')) takes the Python encode."""
+        if encode_planned_f32 is None or type(motor_out) is not array:
+            return False
+        n = len(motor_out)
+        if n < self.motor_count or len(bytes(motor_out)) != 4 * n or (n and type(motor_out[0]) is not float):
+            return False
+        self._f32 = motor_out
+        return True
 
     def write_servos(self, servo_norm, count, now_us):
         """Servo positions -1..1 -> widths: each side of centre linear to its end point."""
@@ -432,7 +463,7 @@ class OutputEncoder:
             return True
         if ticks_diff(now_us, self._last_us) > self.timeout_us:
             self.failsafe = True
-            if self._written:
+            if self.writes != self._writes_at_configure:
                 self.failsafe_trips += 1
                 self.failsafe_at_us = now_us
             self._set_disarmed()

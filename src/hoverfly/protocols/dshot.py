@@ -33,11 +33,16 @@ from hoverfly.compat import IS_MICROPYTHON, const, ticks_add, ticks_diff
 # The armed per-motor loop of DshotEncoder.encode_motors: a viper twin on MicroPython
 # (accel/dshot.py, ~10x faster), else the Python loop below; tested equal.
 _encode_armed = None
+# The board codec's whole encode (OutputEncoder.write): `encode_planned` below, or its viper twin
+# on the float32 bits of an array('f'), which makes no float at all.
+encode_planned_f32 = None
 if IS_MICROPYTHON:
     try:
         from hoverfly.accel.dshot import encode_armed as _encode_armed
+        from hoverfly.accel.dshot import encode_planned as encode_planned_f32
     except (SyntaxError, ImportError, NameError, ValueError):
         _encode_armed = None
+        encode_planned_f32 = None
 
 VALUE_MAX = const(2047)
 THROTTLE_MIN = const(48)  # 1..47 are commands; 48..2047 is the 2000-step throttle range
@@ -387,6 +392,17 @@ class DshotEncoder:
             out_words[i] = (w << 4) | (c & 0xF)
         return moving
 
+    def plan(self, lines):
+        """The array('i') `encode_planned` follows for this encoder, motor k on line lines[k]."""
+        flags = (PLAN_STOP_AT_ZERO if self.stop_at_zero else 0) | (PLAN_BIDIR if self.bidir else 0) \
+            | (PLAN_FLOAT32 if FLOAT32 else 0)
+        tm = self.telemetry_motor
+        p = array("i", [self.motor_count, self._low_fp, self._span_fp, flags, tm + 1 if 0 <= tm else 0]
+                  + [0] * self.motor_count)
+        for k in range(self.motor_count):
+            p[PLAN_LINES + k] = lines[k]
+        return p
+
     def encode_values(self, values, out_words):
         """Integer path: 11-bit values (already mapped) -> words; clamps and counts like dshot_frame."""
         bidir = self.bidir
@@ -404,6 +420,70 @@ class DshotEncoder:
             if bidir:
                 c = ~c
             out_words[i] = (w << 4) | (c & 0xF)
+
+
+# The plan `encode_planned` follows (array('i'), DshotEncoder.plan): the motor count, the fixed-point
+# range, the flags, the telemetry motor + 1, then each motor's output line. Every entry is >= 0 (a
+# viper ptr32 load of a negative one would come back zero-extended on a 64-bit port).
+PLAN_STOP_AT_ZERO = const(1)
+PLAN_BIDIR = const(2)
+PLAN_FLOAT32 = const(4)  # the port's float is float32: its products keep 24 significant bits
+PLAN_LINES = const(5)
+
+
+def _float_is_32():
+    one = float(1)
+    return one + one / 1073741824 == one  # 1 + 2**-30 rounds back to 1 in float32, not in a double
+
+
+FLOAT32 = _float_is_32()
+
+
+def encode_planned(motor_norm, count, plan, out_words):
+    """DshotEncoder.encode_motors' armed loop, planned: motor k's word goes to out_words[line k].
+
+    motor_norm[0..count-1] (clamped to the plan's motor count) -> 16-bit words; returns
+    moving | clamped << 8 (moving: words that are not the stop word; clamped: commands outside
+    0..1 or NaN). The same words as encode_motors for the same encoder; accel/dshot.py's
+    `encode_planned` is its viper twin on the float32 bits of an array('f').
+    """
+    n = plan[0]
+    if count < n:
+        n = count
+    low_fp = plan[1]
+    span_fp = plan[2]
+    flags = plan[3]
+    tm = plan[4] - 1
+    stop_at_zero = flags & PLAN_STOP_AT_ZERO
+    bidir = flags & PLAN_BIDIR
+    moving = 0
+    clamped = 0
+    for i in range(n):
+        t = motor_norm[i]
+        v = -1
+        if t > 1.0:
+            t = 1.0
+            clamped += 1
+        elif not (t >= 0.0):  # below 0, or NaN
+            clamped += 1
+            if stop_at_zero:
+                v = 0
+            else:
+                t = 0.0
+        elif t == 0.0 and stop_at_zero:
+            v = 0
+        if v < 0:
+            v = (low_fp + int(span_fp * t)) >> 16
+            if v > VALUE_MAX:
+                v = VALUE_MAX
+        w = (v << 1) | (1 if i == tm else 0)
+        if w:
+            moving += 1
+        c = w ^ (w >> 4) ^ (w >> 8)
+        if bidir:
+            c = ~c
+        out_words[plan[PLAN_LINES + i]] = (w << 4) | (c & 0xF)
+    return moving | (clamped << 8)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -444,6 +524,7 @@ class DshotCommandQueue:
         self.aborted = 0
         self.sent = 0  # command frames handed out
         self.last_error = ""
+        self.pending = False  # busy(), kept as a plain attribute: the encoder's every pass reads it
 
     def busy(self):
         return self._state != _IDLE or self._count > 0
@@ -465,6 +546,7 @@ class DshotCommandQueue:
         self._cmds[i] = command
         self._motors[i] = motor
         self._count += 1
+        self.pending = True
         return True
 
     def clear(self):
@@ -472,6 +554,7 @@ class DshotCommandQueue:
             self.aborted += 1
         self._count = 0
         self._state = _IDLE
+        self.pending = False
 
     def _step(self, now_us, armed):
         """The command word due this frame, or -1."""
@@ -480,6 +563,7 @@ class DshotCommandQueue:
                 self.aborted += 1
                 self._count = 0
                 self._state = _IDLE
+                self.pending = False
             return -1
         state = self._state
         if state == _POSTDELAY:
@@ -488,6 +572,7 @@ class DshotCommandQueue:
             self._state = state = _IDLE
         if state == _IDLE:
             if not self._count:
+                self.pending = False
                 return -1
             h = self._head
             self._cmd = self._cmds[h]
