@@ -253,6 +253,48 @@ def test_telemetry_goes_out_right_after_an_rc_frame_at_most_every_25_ms():
     assert d.crc_errors == 0 and d.other_frames == sent
 
 
+def test_telemetry_refreshing_only_the_next_kind_sends_the_frames_of_refreshing_all():
+    # send_telemetry sets only the kind the next frame carries; a scheduler fed every kind before each
+    # poll (as it was) must give the very same bytes, with the battery, attitude and mode changing
+    if not IS_MICROPYTHON:  # const() names with an underscore are no module attributes on MicroPython
+        from hoverfly.core import receiver as receiver_mod
+
+        assert (receiver_mod._KIND_BATTERY, receiver_mod._KIND_ATTITUDE, receiver_mod._KIND_FLIGHT_MODE) == (
+            crsf.KIND_BATTERY, crsf.KIND_ATTITUDE, crsf.KIND_FLIGHT_MODE)
+    rx = _receiver()
+    rx.start(T0)
+    b = FakeBoard()
+    ref = crsf.CrsfTelemetryScheduler(rx.telemetry.interval_us)
+    out = bytearray(64)
+    want = bytearray()
+    s = Signals()
+    t = T0
+    cells = 0
+    for k in range(200):
+        b.queue(crsf.encode_rc_frame(CH))
+        t = ticks_add(t, 4000)
+        s.battery_v = 0.0 if k < 5 else 16.8 - 0.01 * k
+        s.current_a = 0.1 * k
+        s.mah_drawn = 2.5 * k
+        s.attitude.roll_rad = 0.01 * k
+        s.attitude.pitch_rad = -0.02 * k
+        s.attitude.yaw_rad = 0.03 * k
+        mode = k // 40
+        armed = k % 3 == 0
+        rx.update(t, b)
+        if rx.telemetry_due(t):
+            rx.send_telemetry(t, b, s, mode, k % 5 == 0, k > 150, armed, k & 6)
+            v = s.battery_v
+            if cells == 0 and v > 0.5:
+                cells = cell_count(v)
+            ref.set_battery(v, s.current_a, s.mah_drawn, battery_remaining_pct(v, cells))
+            ref.set_attitude(s.attitude.pitch_rad, s.attitude.roll_rad, s.attitude.yaw_rad)
+            ref.set_flight_mode(flight_mode_text(mode, k % 5 == 0, k > 150, armed, k & 6))
+            n = ref.poll(t, rx.new_frames, out)
+            want += out[:n]
+    assert rx.telemetry_frames > 20 and bytes(b.sent) == bytes(want)
+
+
 def test_no_telemetry_without_crsf_or_when_switched_off():
     b = FakeBoard()
     for rx in (_receiver("sbus"), _receiver("crsf", crsf_telemetry=0)):

@@ -340,42 +340,58 @@ class RcInput:
 
     def new_frame(self, channels_us):
         """Take one receiver frame (µs per channel)."""
-        # A stick whose µs did not change keeps its value: no float is made for it.
+        # Few locals here and in the helpers (see update); a stick whose µs did not change keeps its value.
         last = self._last_us
-        fixed = self.fixed
-        st = self._st
+        if (channels_us[self.roll_ch] != last[0] or channels_us[self.pitch_ch] != last[1]
+                or channels_us[self.yaw_ch] != last[2] or channels_us[self.throttle_ch] != last[3]):
+            self._sticks(channels_us)
+        self._modes(channels_us)
+        self.frames += 1
+
+    def _sticks(self, channels_us):
+        """The sticks of a frame in which one moved: floats (and the fixed stage's inputs) for those that did."""
+        last = self._last_us
         us = channels_us[self.roll_ch]
         if us != last[0]:
             last[0] = us
-            self.stick_raw[0] = self._stick(us, self.deadband_us)
-            if fixed:
-                st[S_X] = _stick_q(us, self.deadband_us)
+            self._axis(0, us, self.deadband_us)
         us = channels_us[self.pitch_ch]
         if us != last[1]:
             last[1] = us
-            # Pitch stick forward (more µs) means nose down: negative pitch in FRD.
-            self.stick_raw[1] = -self._stick(us, self.deadband_us)
-            if fixed:
-                st[S_X + 1] = -_stick_q(us, self.deadband_us)
+            self._axis(1, us, self.deadband_us)
         us = channels_us[self.yaw_ch]
         if us != last[2]:
             last[2] = us
-            self.stick_raw[2] = self._stick(us, self.yaw_deadband_us)
-            if fixed:
-                st[S_X + 2] = _stick_q(us, self.yaw_deadband_us)
-        t = channels_us[self.throttle_ch]
+            self._axis(2, us, self.yaw_deadband_us)
+        us = channels_us[self.throttle_ch]
+        if us != last[3]:
+            last[3] = us
+            self._throttle(us)
+
+    def _axis(self, i, us, deadband):
+        if i == 1:
+            # Pitch stick forward (more µs) means nose down: negative pitch in FRD.
+            self.stick_raw[1] = -self._stick(us, deadband)
+            if self.fixed:
+                self._st[S_X + 1] = -_stick_q(us, deadband)
+        else:
+            self.stick_raw[i] = self._stick(us, deadband)
+            if self.fixed:
+                self._st[S_X + i] = _stick_q(us, deadband)
+
+    def _throttle(self, t):
         self.throttle_us = t
-        if t != last[3]:
-            last[3] = t
-            b = self._thr_bands
-            if b is not None:
-                # Seed 001: the stick's third (1000-1332, 1333-1665, 1666-2000 µs) picks a stored value.
-                t = b[0] if t < 1333 else (b[1] if t < 1666 else b[2])
-            thr = (t - 1000) * 0.001
-            self.throttle_raw = 0.0 if thr < 0.0 else (1.0 if thr > 1.0 else thr)
-            if fixed:
-                st[S_X + 3] = _throttle_q(t)
-        # The mode ranges: _in_range() inline (four calls a frame otherwise).
+        b = self._thr_bands
+        if b is not None:
+            # Seed 001: the stick's third (1000-1332, 1333-1665, 1666-2000 µs) picks a stored value.
+            t = b[0] if t < 1333 else (b[1] if t < 1666 else b[2])
+        thr = (t - 1000) * 0.001
+        self.throttle_raw = 0.0 if thr < 0.0 else (1.0 if thr > 1.0 else thr)
+        if self.fixed:
+            self._st[S_X + 3] = _throttle_q(t)
+
+    def _modes(self, channels_us):
+        """The mode ranges of a frame: _in_range() inline (four calls a frame otherwise)."""
         n = len(channels_us)
         ch, lo, hi = self._arm
         self.arm_switch = 0 < ch <= n and lo <= channels_us[ch - 1] < hi
@@ -387,7 +403,6 @@ class RcInput:
             self.mode = MODE_ANGLE if 0 < ch <= n and lo <= channels_us[ch - 1] < hi else MODE_ACRO
         ch, lo, hi = self._airmode
         self.airmode_switch = 0 < ch <= n and lo <= channels_us[ch - 1] < hi
-        self.frames += 1
 
     def throttle_low(self):
         return self.throttle_us < self.min_check_us
@@ -404,20 +419,25 @@ class RcInput:
 
     def update(self, sp):
         """Smooth the latest frame into the setpoint (every pass)."""
-        if self.fixed:
-            changed = _rc_pass(self._co, self._st, sp.stick_norm, sp.rate_rad_s)
-            if changed:
-                st = self._st
-                if changed & 1:
-                    self._roll_angle_rad = st[S_Y] * self._angle_per_q
-                if changed & 2:
-                    self._pitch_angle_rad = st[S_Y + 1] * self._angle_per_q
-                if changed & 8:
-                    self._throttle_norm = st[S_Y + 3] * _INV20
-            sp.roll_angle_rad = self._roll_angle_rad
-            sp.pitch_angle_rad = self._pitch_angle_rad
-            sp.throttle_norm = self._throttle_norm
+        # Few locals on purpose: a bytecode function whose frame (locals and value stack) passes 11
+        # machine words takes it from the heap on every call on MicroPython (docs/pico.md).
+        if not self.fixed:
+            self._update_float(sp)
             return
+        changed = _rc_pass(self._co, self._st, sp.stick_norm, sp.rate_rad_s)
+        if changed:
+            st = self._st
+            if changed & 1:
+                self._roll_angle_rad = st[S_Y] * self._angle_per_q
+            if changed & 2:
+                self._pitch_angle_rad = st[S_Y + 1] * self._angle_per_q
+            if changed & 8:
+                self._throttle_norm = st[S_Y + 3] * _INV20
+        sp.roll_angle_rad = self._roll_angle_rad
+        sp.pitch_angle_rad = self._pitch_angle_rad
+        sp.throttle_norm = self._throttle_norm
+
+    def _update_float(self, sp):
         f = self.filters
         if self._smooth_type != "pt2":
             s = sp.stick_norm

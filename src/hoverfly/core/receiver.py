@@ -36,6 +36,10 @@ _EDGES_MAX = const(32)  # pairs (code, t_us) per read; a 20 ms PWM frame of 8 ch
 _WINDOW_US = const(1000000)  # frame-rate and link-quality window
 _LQ_STALE_US = const(250000)  # Betaflight: no CRSF 0x14 this long => RSSI and LQ read 0
 TELEMETRY_INTERVAL_US = const(25000)  # 40 frames/s: ~10 Hz per kind with three kinds (Betaflight)
+# crsf.KIND_BATTERY, KIND_ATTITUDE, KIND_FLIGHT_MODE (protocols/crsf.py is imported only with CRSF telemetry)
+_KIND_BATTERY = const(0)
+_KIND_ATTITUDE = const(1)
+_KIND_FLIGHT_MODE = const(2)
 
 # CRSF flight-mode strings as Betaflight master sends them (reference/protocols.md §1.5):
 # armed plain, disarmed and ready to arm '*', disarmed with arming blocked '!'.
@@ -121,6 +125,8 @@ class Receiver:
         self._cells = 0
         self._tlm_next_us = 0
         self._tlm_buf = bytearray(64)
+        self._out = None  # copy_channels: the array it last filled and a view of it
+        self._out_view = None
         # read buffers
         self._buf = bytearray(_READ_BYTES)
         self._edges = array("i", [0] * (2 * _EDGES_MAX))
@@ -156,54 +162,20 @@ class Receiver:
     # ------------------------------------------------------------------ input
     def update(self, now_us, board):
         """Take what the board received; returns the number of new valid frames (0 if none)."""
+        # Few locals here: a bytecode function whose frame (locals and value stack) passes 11 machine
+        # words takes it from the heap on every call on MicroPython (docs/pico.md); the rarer paths are
+        # methods of their own.
         dec = self.decoder
-        new = 0
         if self.serial:
-            buf = self._buf
-            size = len(buf)
-            for _ in range(_READS_MAX):
-                n = board.read_rx(buf)
-                if n <= 0:
-                    break
-                new += dec.feed(buf, n)
-                if n < size:
-                    break
-            errors = dec.crc_errors + dec.length_errors
+            n = board.read_rx(self._buf)
+            new = dec.feed(self._buf, n) if n > 0 else 0  # most polls find nothing
+            if n >= _READ_BYTES:  # a full read: more may be waiting
+                new += self._read_more(board)
+            self.errors = dec.crc_errors + dec.length_errors
         else:
-            edges = self._edges
-            pwm = self._pwm
-            for _ in range(_READS_MAX):
-                n = board.read_rx_edges(edges)
-                if n <= 0:
-                    break
-                k = 0
-                end = 2 * n
-                while k < end:
-                    code = edges[k]
-                    if pwm:
-                        new += dec.edge(code >> 1, code & 1, edges[k + 1])
-                    else:
-                        new += dec.edge(code & 1, edges[k + 1])
-                    k += 2
-                if n < _EDGES_MAX:
-                    break
-            errors = dec.errors
-        self.errors = errors
+            new = self._read_edges(board)
         if new:
-            if self.serial and dec.failsafe:
-                # The receiver's failsafe values are not the pilot's sticks: a lost frame.
-                self.failsafe_frames += new
-                self._win_failsafe += new
-                self.rx_failsafe = True
-                new = 0
-            else:
-                if self.serial and dec.frame_lost:
-                    self.lost_frames += new  # a repeat: still the pilot's last sticks
-                    self._win_repeat += new
-                self.rx_failsafe = False
-                self.frames += new
-                self._win_valid += new
-                self.last_frame_us = now_us
+            new = self._count_frames(now_us, new)
         self.new_frames = new
         if self._crsf:
             if dec.link_stats_frames != self._stats_frames:
@@ -214,6 +186,62 @@ class Receiver:
                 self.snr_db = 0
         if ticks_diff(now_us, self._win_start_us) >= _WINDOW_US:
             self._close_window(now_us)
+        return new
+
+    def _read_more(self, board):
+        """Reads after a full one, _READS_MAX in all (bounded: a chattering UART cannot hold the task)."""
+        buf = self._buf
+        dec = self.decoder
+        new = 0
+        for _ in range(_READS_MAX - 1):
+            n = board.read_rx(buf)
+            if n <= 0:
+                break
+            new += dec.feed(buf, n)
+            if n < _READ_BYTES:
+                break
+        return new
+
+    def _read_edges(self, board):
+        """PPM/PWM: the pin edges since the last call through the pulse decoder; new frames."""
+        dec = self.decoder
+        edges = self._edges
+        pwm = self._pwm
+        new = 0
+        for _ in range(_READS_MAX):
+            n = board.read_rx_edges(edges)
+            if n <= 0:
+                break
+            k = 0
+            end = 2 * n
+            while k < end:
+                code = edges[k]
+                if pwm:
+                    new += dec.edge(code >> 1, code & 1, edges[k + 1])
+                else:
+                    new += dec.edge(code & 1, edges[k + 1])
+                k += 2
+            if n < _EDGES_MAX:
+                break
+        self.errors = dec.errors
+        return new
+
+    def _count_frames(self, now_us, new):
+        """The link watch's view of `new` decoded frames; returns how many carry the pilot's sticks."""
+        dec = self.decoder
+        if self.serial and dec.failsafe:
+            # The receiver's failsafe values are not the pilot's sticks: a lost frame.
+            self.failsafe_frames += new
+            self._win_failsafe += new
+            self.rx_failsafe = True
+            return 0
+        if self.serial and dec.frame_lost:
+            self.lost_frames += new  # a repeat: still the pilot's last sticks
+            self._win_repeat += new
+        self.rx_failsafe = False
+        self.frames += new
+        self._win_valid += new
+        self.last_frame_us = now_us
         return new
 
     def _close_window(self, now_us):
@@ -243,10 +271,14 @@ class Receiver:
         return ticks_diff(now_us, self.last_frame_us)
 
     def copy_channels(self, out):
-        """The last valid frame's 16 channels (µs) into out[0..15]."""
-        src = self.channels_us
-        for i in range(CHANNELS):
-            out[i] = src[i]
+        """The last valid frame's 16 channels (µs) into out[0..15] (an array("H") of 16 or more)."""
+        view = self._out_view
+        if view is None or self._out is not out:
+            # A memoryview's slice store is one copy and allocates nothing on MicroPython (an array's
+            # slice store makes a slice object; an element loop is five times slower): bench/rc_input.py.
+            self._out = out
+            view = self._out_view = memoryview(out)
+        view[0:CHANNELS] = self.channels_us
 
     # -------------------------------------------------------------- telemetry
     def telemetry_due(self, now_us):
@@ -260,10 +292,16 @@ class Receiver:
         v = signals.battery_v
         if self._cells == 0 and v > 0.5:
             self._cells = cell_count(v)  # counted once, as the pack is plugged in: sag must not change it
-        t.set_battery(v, signals.current_a, signals.mah_drawn, battery_remaining_pct(v, self._cells))
-        a = signals.attitude
-        t.set_attitude(a.pitch_rad, a.roll_rad, a.yaw_rad)
-        t.set_flight_mode(flight_mode_text(mode, airmode, failsafe, armed, arming_flags))
+        # Only the kind the frame will carry is refreshed (all of them until each has data): the same
+        # frame, a third of the work.
+        kind = t.upcoming()
+        if kind < 0 or kind == _KIND_BATTERY:
+            t.set_battery(v, signals.current_a, signals.mah_drawn, battery_remaining_pct(v, self._cells))
+        if kind < 0 or kind == _KIND_ATTITUDE:
+            a = signals.attitude
+            t.set_attitude(a.pitch_rad, a.roll_rad, a.yaw_rad)
+        if kind < 0 or kind == _KIND_FLIGHT_MODE:
+            t.set_flight_mode(flight_mode_text(mode, airmode, failsafe, armed, arming_flags))
         n = t.poll(now_us, self.new_frames, self._tlm_buf)
         self._tlm_next_us = ticks_add(now_us, TELEMETRY_INTERVAL_US)
         if n:

@@ -324,18 +324,38 @@ def encode_link_statistics(rssi1_dbm=-60, rssi2_dbm=-60, link_quality_pct=100, s
     return out
 
 
+def _ufield(x, hi):
+    """_clamp(_round(x), 0, hi) in one call: an unsigned field, rounded half up, clamped."""
+    if x < 0:
+        return 0
+    v = int(x + 0.5)
+    return hi if v > hi else v
+
+
 def encode_battery(out, voltage_v, current_a, used_mah, remaining_pct):
     """BATTERY_SENSOR 0x08 into out (>= 12 bytes); returns 12.
 
     Voltage and current in 0.1 V / 0.1 A, rounded (Betaflight rounds the voltage);
     capacity used u24 mAh; remaining %. Everything clamped to its field.
     """
+    # The fields written in place, not through _put_u16/_clamp: it runs in the receiver task, and each
+    # call is a frame on MicroPython.
     out[2] = TYPE_BATTERY
-    _put_u16(out, 3, _clamp(_round(voltage_v * 10), 0, 0xFFFF))
-    _put_u16(out, 5, _clamp(_round(current_a * 10), 0, 0xFFFF))
-    _put_u24(out, 7, _clamp(_round(used_mah), 0, 0xFFFFFF))
-    out[10] = _clamp(_round(remaining_pct), 0, 100)
-    return _finish(out, 12)
+    v = _ufield(voltage_v * 10, 0xFFFF)
+    out[3] = v >> 8
+    out[4] = v & 0xFF
+    v = _ufield(current_a * 10, 0xFFFF)
+    out[5] = v >> 8
+    out[6] = v & 0xFF
+    v = _ufield(used_mah, 0xFFFFFF)
+    out[7] = v >> 16
+    out[8] = (v >> 8) & 0xFF
+    out[9] = v & 0xFF
+    out[10] = _ufield(remaining_pct, 100)
+    out[0] = SYNC_FC
+    out[1] = 10
+    out[11] = _crc8(out, 2, 11)
+    return 12
 
 
 def _angle_wire(angle_rad):
@@ -344,16 +364,30 @@ def _angle_wire(angle_rad):
         angle_rad -= 6.283185307179586
     while angle_rad < -3.141592653589793:
         angle_rad += 6.283185307179586
-    return _clamp(int(angle_rad * 10000), -31416, 31416) & 0xFFFF
+    v = int(angle_rad * 10000)
+    if v > 31416:
+        return 31416
+    if v < -31416:
+        return -31416 & 0xFFFF
+    return v & 0xFFFF
 
 
 def encode_attitude(out, pitch_rad, roll_rad, yaw_rad):
     """ATTITUDE 0x1E into out (>= 10 bytes); returns 10. Pitch first, i16 BE in 100 µrad each."""
     out[2] = TYPE_ATTITUDE
-    _put_u16(out, 3, _angle_wire(pitch_rad))
-    _put_u16(out, 5, _angle_wire(roll_rad))
-    _put_u16(out, 7, _angle_wire(yaw_rad))
-    return _finish(out, 10)
+    v = _angle_wire(pitch_rad)
+    out[3] = v >> 8
+    out[4] = v & 0xFF
+    v = _angle_wire(roll_rad)
+    out[5] = v >> 8
+    out[6] = v & 0xFF
+    v = _angle_wire(yaw_rad)
+    out[7] = v >> 8
+    out[8] = v & 0xFF
+    out[0] = SYNC_FC
+    out[1] = 8
+    out[9] = _crc8(out, 2, 9)
+    return 10
 
 
 FLIGHT_MODE_MAX_CHARS = const(15)  # ELRS reserves 16 bytes including the NUL
@@ -373,7 +407,10 @@ def encode_flight_mode(out, mode):
     for k in range(n):
         out[3 + k] = mode[k]
     out[3 + n] = 0
-    return _finish(out, n + 5)
+    out[0] = SYNC_FC
+    out[1] = n + 3
+    out[n + 4] = _crc8(out, 2, n + 4)
+    return n + 5
 
 
 def encode_gps(out, lat_deg_e7, lon_deg_e7, ground_speed_m_s, course_rad, altitude_m, satellites):
@@ -463,6 +500,17 @@ class CrsfTelemetryScheduler:
                 self._has[k] = 0
         elif kind < _KINDS:
             self._has[kind] = 0
+
+    def upcoming(self):
+        """The kind the next frame will carry (KIND_*), -1 while no kind has data: a caller may refresh
+        only that kind's data before `poll`."""
+        has = self._has
+        k = self._next
+        for _ in range(_KINDS):
+            if has[k]:
+                return k
+            k = (k + 1) % _KINDS
+        return -1
 
     def poll(self, now_us, rc_frames, out):
         """Length of the frame written into out (>= 64 bytes) to send now, or 0 for nothing."""
