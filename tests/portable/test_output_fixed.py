@@ -67,21 +67,48 @@ def test_the_fixed_commands_agree_with_the_float_stage():
 
 def test_the_viper_twin_gives_the_python_twins_bits():
     if not IS_MICROPYTHON:
-        assert output_mod._motors_fixed is output_mod.motors_fixed  # no viper: the Python twin runs
+        assert OutputStage.update_fixed is OutputStage.update_fixed_python  # no viper: the Python twin runs
         return
-    assert output_mod._motors_fixed is output_viper.motors_fixed
+    assert OutputStage.update_fixed is output_viper.update_fixed
     for sets in ((), (("motor_idle_pct", 0.0), ("motor_max_pct", 50.0)), (("motor_idle_pct", 20.0),)):
-        st = _stage(sets)
+        sa = _stage(sets)
+        sb = _stage(sets)
         na, nb = array("f", [0.0] * 8), array("f", [0.0] * 8)
-        oa, ob = array("f", [0.0] * 8), array("f", [0.0] * 8)
+        oa, ob = array("f", [7.0] * 8), array("f", [7.0] * 8)
         rnd = Lcg(23)
         for n in range(1500):
             _demands(rnd, n, na, nb)
-            ca = output_mod.motors_fixed(na, oa, st._fixed_plan)
-            cb = output_viper.motors_fixed(nb, ob, st._fixed_plan)
-            assert ca == cb, (sets, n, ca, cb)
+            armed = n % 50 != 7
+            sa.update_fixed_python(na, armed, oa)
+            sb.update_fixed(nb, armed, ob)
+            assert sa.clamped == sb.clamped, (sets, n, sa.clamped, sb.clamped)
             for k in range(8):
                 assert oa[k] == ob[k], (sets, n, k, na[k], oa[k], ob[k])
+        assert sa.clamped > 100
+    # every Q16 command's float32 bits (each exponent of the encode): demand c / 65536 with idle 0, span 1
+    sa = _stage((("motor_idle_pct", 0.0), ("motor_max_pct", 100.0)))
+    sb = _stage((("motor_idle_pct", 0.0), ("motor_max_pct", 100.0)))
+    na = array("f", [0.0] * 8)
+    oa, ob = array("f", [0.0] * 8), array("f", [0.0] * 8)
+    for c in range(0, 65537, 8):
+        for k in range(8):
+            na[k] = (c + k) / 65536.0
+        sa.update_fixed_python(na, True, oa)
+        sb.update_fixed(na, True, ob)
+        assert list(oa) == list(ob), (c, list(oa), list(ob))
+
+
+def test_the_clamp_count_saturates_below_2_to_the_31_on_both_twins():
+    for st in (_stage(), _stage()):
+        st.clamped = 0x3FFFFFFF - 3
+        norm = array("f", [2.0] * 8)
+        out = array("f", [0.0] * 8)
+        st.update_fixed(norm, True, out)
+        assert st.clamped == 0x3FFFFFFF + 5
+        st.update_fixed(norm, True, out)
+        assert st.clamped == 0x3FFFFFFF + 5 and out[0] == 1.0
+        st.update_fixed_python(norm, True, out)
+        assert st.clamped == 0x3FFFFFFF + 5
 
 
 def test_fixed_commands_allocate_nothing_on_micropython():

@@ -1,8 +1,10 @@
-"""Viper twin of core/output.py's `motors_fixed` (MicroPython only; chosen at import by core/output.py).
+"""Viper twin of core/output.py's `OutputStage.update_fixed` (MicroPython only; chosen at import by core/output.py).
 
-The same integer arithmetic as the Python `motors_fixed`, which stays the reference and the
-fallback; tests/portable/test_output_fixed.py runs both on the same inputs and wants every output
-bit and the clamp count equal. As in accel/rate.py, floats are read and written as their float32
+`update_fixed` is the method itself (core/output.py puts it on the class, as core/fixedimu.py does),
+so the pass makes no bytecode call for it. The same integer arithmetic as the Python `motors_fixed`
+(`OutputStage.update_fixed_python`), which stays the reference and the fallback;
+tests/portable/test_output_fixed.py runs both on the same inputs and wants every output bit and the
+clamp count equal. As in accel/rate.py, floats are read and written as their float32
 bits (`ptr32` on the "f" arrays), so no float object is made:
 
 - The clamps are decided on the bits: NaN, and anything negative but -0.0, is the floor (counted);
@@ -10,7 +12,10 @@ bits (`ptr32` on the "f" arrays), so no float object is made:
   float comparisons decide them.
 - A demand in 0..1 is truncated to Q16; the command is idle + (span * demand + 2**13) >> 14 in
   Q16 (span Q14, so the product stays under 2**31 on a 32-bit port), written as the float32 bits
-  of command / 2**16: at most 2**17, so exact, as an array store of that value is.
+  of command / 2**16: at most 2**17, so exact, as an array store of that value is; the exponent in
+  five halving steps.
+- Disarmed: every motor's command is 0.0 (bits 0). The clamp count saturates just past 2**30, as
+  the Python twin's does, so reading it back never needs more than a 32-bit word.
 """
 
 # ptr32/int are viper's built-in casts: they exist only inside @micropython.viper code.
@@ -20,18 +25,24 @@ import micropython
 
 
 @micropython.viper
-def motors_fixed(norm_a, out_a, plan_a) -> int:
-    norm = ptr32(norm_a)
-    out = ptr32(out_a)
-    plan = ptr32(plan_a)  # array('i'): motors, idle Q16, span Q14 (none negative)
+def update_fixed(self, motor_norm, armed: int, motor_out):
+    """OutputStage.update_fixed itself (core/output.py puts it on the class): no bytecode frame."""
+    out = ptr32(motor_out)
+    plan = ptr32(self._fixed_plan)  # array('i'): motors, idle Q16, span Q14 (none negative)
     n = int(plan[0])
+    i = 0
+    if not armed:
+        while i < n:  # the float32 bits of 0.0
+            out[i] = 0
+            i += 1
+        return
+    norm = ptr32(motor_norm)
     idle = int(plan[1])
     span = int(plan[2])
     one = 1
     low31 = (one << 31) - 1  # 0x7FFFFFFF and 0x7F800000 (+inf): no constant of 2**30 or more, which is
     inf = ((one << 8) - 1) << 23  # not a small int on a 32-bit port
     clamped = 0
-    i = 0
     while i < n:
         b = norm[i]
         mag = b & low31
@@ -56,12 +67,26 @@ def motors_fixed(norm_a, out_a, plan_a) -> int:
         c = idle + ((span * v + 8192) >> 14)  # at most 2**17: exact in float32
         bits = 0
         if c > 0:
-            pw = 0
+            pw = 0  # floor(log2(c)), c < 2**18
             tt = c
-            while tt > 1:
-                tt = tt >> 1
+            if tt >= 0x10000:
+                tt = tt >> 16
+                pw = 16
+            if tt >= 0x100:
+                tt = tt >> 8
+                pw += 8
+            if tt >= 0x10:
+                tt = tt >> 4
+                pw += 4
+            if tt >= 4:
+                tt = tt >> 2
+                pw += 2
+            if tt >= 2:
                 pw += 1
             bits = ((pw - 16 + 127) << 23) | ((c << (23 - pw)) & 0x7FFFFF)
         out[i] = bits
         i += 1
-    return clamped
+    if clamped:
+        v = int(self.clamped)
+        if v < 0x3FFFFFFF:  # a count that saturates near 2**30 stays a machine word on a 32-bit port
+            self.clamped = v + clamped

@@ -27,7 +27,7 @@ the float stage's (a DShot step is 5e-4); its viper twin (accel/output.py) makes
 
 from array import array
 
-from hoverfly.compat import IS_MICROPYTHON, ticks_diff
+from hoverfly.compat import IS_MICROPYTHON, const, ticks_diff
 from hoverfly.core.mixer import MAX_MOTORS
 from hoverfly.core.params import row
 from hoverfly.protocols import analog
@@ -52,14 +52,15 @@ _ANALOG = (analog.ONESHOT125, analog.ONESHOT42, analog.MULTISHOT, analog.PWM)
 MAX_SERVOS = 4
 _INV16 = 1.0 / 65536.0
 
-_motors_fixed = None
+_update_fixed = None
 if IS_MICROPYTHON:
     try:
-        from hoverfly.accel.output import motors_fixed as _motors_fixed
+        from hoverfly.accel.output import update_fixed as _update_fixed
     except (SyntaxError, ImportError, NameError, ValueError):
-        _motors_fixed = None
+        _update_fixed = None
 
-HAS_ACCEL = _motors_fixed is not None
+HAS_ACCEL = _update_fixed is not None
+_CLAMPED_MAX = const(0x3FFFFFFF)  # update_fixed's count saturates here: a 32-bit word in the viper twin
 
 
 def motors_fixed(norm, out, plan):
@@ -82,10 +83,6 @@ def motors_fixed(norm, out, plan):
             v = int(m * 65536.0)
         out[i] = (idle + ((span * v + 8192) >> 14)) * _INV16
     return clamped
-
-
-if _motors_fixed is None:
-    _motors_fixed = motors_fixed
 
 
 def protocol_index(name):
@@ -191,16 +188,19 @@ class OutputStage:
                 self.clamped += 1
             motor_out[i] = idle + span * m
 
-    def update_fixed(self, motor_norm, armed, motor_out):
-        """`update` in fixed point (with the fixed rate loop): the same clamps and counts, commands
-        within 2**-14 of update's, no float made where the viper twin runs."""
+    def update_fixed_python(self, motor_norm, armed, motor_out):
+        """`update` in fixed point (with the fixed rate loop): the same clamps and counts (saturating
+        at 2**30), commands within 2**-14 of update's. On MicroPython the viper twin
+        (accel/output.py `update_fixed`) stands in for this method and makes no float."""
         # Few locals (see OutputEncoder.write): the pass's every call stays off the heap.
         if not armed:
             self._stop(motor_out)
             return
-        c = _motors_fixed(motor_norm, motor_out, self._fixed_plan)
-        if c:
+        c = motors_fixed(motor_norm, motor_out, self._fixed_plan)
+        if c and self.clamped < _CLAMPED_MAX:
             self.clamped += c
+
+    update_fixed = update_fixed_python
 
     def _stop(self, motor_out):
         for i in range(self.motor_count):
@@ -238,6 +238,10 @@ class OutputStage:
                 self.replies += 1
             elif kind < 0:
                 self.reply_errors += 1
+
+
+if HAS_ACCEL:
+    OutputStage.update_fixed = _update_fixed
 
 
 class OutputEncoder:
