@@ -3,8 +3,11 @@
 Takes bench/core_loop.py's armed flight (`armed_flight()`: an MPU-6050 burst through the driver,
 a CRSF frame every 4th pass, DShot words), then times every stage call separately: each stage
 method is replaced on its instance by a wrapper that reads ticks_us() and gc.mem_alloc() around
-the real call (GC disabled for the pass, collected between passes, untimed). The wrapper's own
-cost (a wrapped no-op, measured the same way) is subtracted from every per-call figure. The slow tasks
+the real call (GC disabled for the pass, collected between passes as bench/core_loop.py does, untimed).
+A wrapper has the stage's arity and calls the class's function with the instance first, as the pass's own
+method call does (a bound method called with many arguments copies them to the heap on MicroPython). The
+wrapper's own cost (a wrapped no-op of the same arity, measured the same way) is subtracted from every
+per-call figure; probe_us and probe_bytes are the three-argument one's. The slow tasks
 are probed on a second flight and the calls inside them on a third (gc.mem_alloc() walks the heap: a
 probe inside a probed call would add its walk to the outer call's time).
 
@@ -42,89 +45,109 @@ BYTES = [0] * 64
 CALLS = [0] * 64
 NAMES = []
 NESTED = []
+ARITY = []
 
 
-def _wrap(slot, fn, nargs):
-    # One wrapper per arity: a *args call allocates on MicroPython, inside the timed window.
-    if nargs == 0:
-        def w():
-            a0 = mem_alloc()
-            t0 = ticks_us()
-            r = fn()
-            t1 = ticks_us()
-            a1 = mem_alloc()
-            US[slot] += ticks_diff(t1, t0)
-            BYTES[slot] += a1 - a0
-            CALLS[slot] += 1
-            return r
-    elif nargs == 1:
-        def w(a):
-            a0 = mem_alloc()
-            t0 = ticks_us()
-            r = fn(a)
-            t1 = ticks_us()
-            a1 = mem_alloc()
-            US[slot] += ticks_diff(t1, t0)
-            BYTES[slot] += a1 - a0
-            CALLS[slot] += 1
-            return r
-    elif nargs == 2:
-        def w(a, b):
-            a0 = mem_alloc()
-            t0 = ticks_us()
-            r = fn(a, b)
-            t1 = ticks_us()
-            a1 = mem_alloc()
-            US[slot] += ticks_diff(t1, t0)
-            BYTES[slot] += a1 - a0
-            CALLS[slot] += 1
-            return r
-    elif nargs == 3:
-        def w(a, b, c):
-            a0 = mem_alloc()
-            t0 = ticks_us()
-            r = fn(a, b, c)
-            t1 = ticks_us()
-            a1 = mem_alloc()
-            US[slot] += ticks_diff(t1, t0)
-            BYTES[slot] += a1 - a0
-            CALLS[slot] += 1
-            return r
-    elif nargs == 4:
-        def w(a, b, c, d):
-            a0 = mem_alloc()
-            t0 = ticks_us()
-            r = fn(a, b, c, d)
-            t1 = ticks_us()
-            a1 = mem_alloc()
-            US[slot] += ticks_diff(t1, t0)
-            BYTES[slot] += a1 - a0
-            CALLS[slot] += 1
-            return r
-    else:
-        def w(*args):
-            a0 = mem_alloc()
-            t0 = ticks_us()
-            r = fn(*args)
-            t1 = ticks_us()
-            a1 = mem_alloc()
-            US[slot] += ticks_diff(t1, t0)
-            BYTES[slot] += a1 - a0
-            CALLS[slot] += 1
-            return r
-    return w
+_WRAPPER = """
+def w(%(params)s):
+    m0 = mem_alloc()
+    t0 = ticks_us()
+    r = fn(%(args)s)
+    t1 = ticks_us()
+    m1 = mem_alloc()
+    US[slot] += ticks_diff(t1, t0)
+    BYTES[slot] += m1 - m0
+    CALLS[slot] += 1
+    return r
+"""
+
+
+def _wrap(slot, fn, nargs, obj):
+    """A wrapper of the stage's own arity (a *args call allocates on MicroPython, inside the timed window).
+    With obj, fn is the class's function and gets obj first: calling a bound method with many arguments
+    copies them to the heap on MicroPython, which the stage's own call (LOAD_METHOD) never does."""
+    params = ", ".join("a%d" % i for i in range(nargs))
+    args = ", ".join((["obj"] if obj is not None else []) + ["a%d" % i for i in range(nargs)])
+    space = {"fn": fn, "obj": obj, "slot": slot, "US": US, "BYTES": BYTES, "CALLS": CALLS,
+             "mem_alloc": mem_alloc, "ticks_us": ticks_us, "ticks_diff": ticks_diff}
+    exec(_WRAPPER % {"params": params, "args": args}, space)
+    return space["w"]
 
 
 def probe(obj, attr, name, nargs, nested=False):
     slot = len(NAMES)
     NAMES.append(name)
     NESTED.append(nested)
-    setattr(obj, attr, _wrap(slot, getattr(obj, attr), nargs))
+    ARITY.append(nargs)
+    fn = getattr(type(obj), attr, None)
+    if type(fn) is not _FUNCTION or attr in getattr(obj, "__dict__", {}):
+        # an instance attribute (a callable stored on it), or a viper/native method: the bound method
+        setattr(obj, attr, _wrap(slot, getattr(obj, attr), nargs, None))
+    else:
+        setattr(obj, attr, _wrap(slot, fn, nargs, obj))
 
 
 class _Noop:
-    def f(self, a, b, c):
-        return a
+    """Methods of each arity the stages have: what a probe costs around a call that does nothing."""
+
+    def f0(self):
+        return None
+
+    def f1(self, a):
+        return None
+
+    def f2(self, a, b):
+        return None
+
+    def f3(self, a, b, c):
+        return None
+
+    def f4(self, a, b, c, d):
+        return None
+
+    def f5(self, a, b, c, d, e):
+        return None
+
+    def f6(self, a, b, c, d, e, g):
+        return None
+
+    def f7(self, a, b, c, d, e, g, h):
+        return None
+
+    def f8(self, a, b, c, d, e, g, h, k):
+        return None
+
+
+_FUNCTION = type(_Noop.f0)
+
+
+def _probe_costs(passes, runs):
+    """The probe's own cost by arity: ([µs a call], [bytes a call]), best of runs."""
+    noop = _Noop()
+    us = [0.0] * 9
+    nbytes = [0.0] * 9
+    for n in range(9):
+        slot = len(NAMES)
+        probe(noop, "f%d" % n, "noop", n)
+        call = getattr(noop, "f%d" % n)
+        args = tuple(range(n))
+        best = None
+        for _ in range(runs):
+            US[slot] = BYTES[slot] = CALLS[slot] = 0
+            for k in range(passes):
+                if k % 16 == 0:
+                    collect_garbage()
+                disable_gc()
+                call(*args)
+                enable_gc()
+            if best is None or US[slot] < best:
+                best = US[slot]
+                nbytes[n] = BYTES[slot] / passes
+        us[n] = best / passes
+        NAMES.pop()
+        NESTED.pop()
+        ARITY.pop()
+    return us, nbytes
 
 
 def _clear():
@@ -193,8 +216,8 @@ def _measure(board, f, t, passes, runs, probe_us, probe_b, best):
         _, _, _, t = timed_passes(board, f, t, passes)
         for i in range(len(NAMES)):
             if CALLS[i]:
-                per_us = US[i] / CALLS[i] - probe_us
-                per_b = BYTES[i] / CALLS[i] - probe_b
+                per_us = US[i] / CALLS[i] - probe_us[ARITY[i]]
+                per_b = BYTES[i] / CALLS[i] - probe_b[ARITY[i]]
                 if best[i] is None or per_us < best[i][0]:
                     best[i] = (per_us, per_b, CALLS[i] / passes)
     return t
@@ -211,25 +234,8 @@ def main():
         if step_us is None or us < step_us:
             step_us = us
             step_bytes = nbytes
-    # the probe's own cost: a wrapped no-op, called as the stages are
-    noop = _Noop()
-    probe(noop, "f", "noop", 3)
-    best_probe = None
-    for _ in range(runs):
-        _clear()
-        for k in range(passes):
-            if k % 16 == 0:
-                collect_garbage()
-            disable_gc()
-            noop.f(1, 2, 3)
-            enable_gc()
-        if best_probe is None or US[0] < best_probe:
-            best_probe = US[0]
-            probe_bytes = BYTES[0]
-    probe_us = best_probe / passes
-    probe_b = probe_bytes / passes
-    NAMES.pop()
-    NESTED.pop()
+    # the probe's own cost: a wrapped no-op of each arity, called as the stages are
+    probe_us, probe_b = _probe_costs(passes, runs)
     install_stages(board, f)
     best = [None] * 64
     _measure(board, f, t, passes, runs, probe_us, probe_b, best)
@@ -254,8 +260,10 @@ def main():
     runtime = "micropython" if IS_MICROPYTHON else "cpython"
     print('{"runtime": "%s", "passes": %d, "step_us": %.2f, "step_bytes": %.1f, "probe_us": %.2f, '
           '"probe_bytes": %.1f, "step_self_us": %.2f, "stages": %s, "nested": %s}'
-          % (runtime, passes, step_us / passes, step_bytes / passes, probe_us, probe_b, self_us, parts[0], parts[1]))
+          % (runtime, passes, step_us / passes, step_bytes / passes, probe_us[3], probe_b[3], self_us, parts[0],
+             parts[1]))
 
 
-main()
+if __name__ == "__main__":
+    main()
 sys.stdout.flush()
