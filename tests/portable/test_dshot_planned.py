@@ -334,3 +334,16 @@ def test_an_idle_queue_is_skipped_and_a_pushed_command_still_goes_out():
     codec.commands.push(dshot.CMD_BEEP3, False, 1)
     codec.write(stop, 4, t + 1000)
     assert frame_value(codec.words[1]) == dshot.CMD_BEEP3 and codec.words[0] == dshot_frame(0)
+
+
+def test_a_reconfigured_encoder_forgets_the_array_it_read_as_dshot():
+    codec = OutputEncoder()
+    codec.configure(_params(), 4, 0, 0)
+    m = array("f", [0.5, 0.5, 0.5, 0.5])
+    codec.write(m, 4, 1000)
+    assert frame_value(codec.words[0]) > 48
+    codec.configure(_params(motor_protocol="pwm"), 4, 0, 2000)
+    words = list(codec.words)
+    codec.write(m, 4, 3000)  # the same array: now pulse widths, the words untouched
+    assert abs(codec.pulse_us[0] - 1500.0) < 1e-3 and list(codec.words) == words
+    assert codec.writes == 2 and not codec.failsafe

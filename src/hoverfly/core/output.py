@@ -383,21 +383,22 @@ class OutputEncoder:
         """Encode motor_out[0..count-1] (0 = stop, otherwise idle..1) onto the lines; a fresh command."""
         # Few locals: a MicroPython function whose locals and stack pass 11 slots gets its frame from
         # the heap on every call (allocated and freed: no bytes remain, the allocator's work does).
-        if self.dshot:
-            # One call encodes every motor onto its line (DshotEncoder.plan); on MicroPython the viper
-            # twin reads an array('f')'s float32 bits and makes no float.
-            if motor_out is self._f32 or self._takes_bits(motor_out):
-                r = encode_planned_f32(motor_out, count, self._plan, self.words)
-            else:
-                r = encode_planned(motor_out, count, self._plan, self.words)
+        # One call encodes every motor onto its line (DshotEncoder.plan); on MicroPython the viper twin
+        # reads an array('f')'s float32 bits and makes no float (_f32: one seen before, DShot only).
+        if motor_out is self._f32 or (self.dshot and self._takes_bits(motor_out)):
+            r = encode_planned_f32(motor_out, count, self._plan, self.words)
+        elif self.dshot:
+            r = encode_planned(motor_out, count, self._plan, self.words)
+        else:
+            r = -1
+            self._write_analog(motor_out, count)
+        if r >= 0:
             if r > 0xFF:
                 self._count_clamped(r >> 8)
             # DShot commands go out only while every motor is stopped; a spinning motor drops them.
             # Idle (the flight's every pass) there is nothing to send or abort: not even the call.
             if self.commands.pending:
                 self.commands.apply(now_us, r & 0xFF != 0, self.words)
-        else:
-            self._write_analog(motor_out, count)
         self._last_us = now_us
         self.failsafe = False
         self.writes += 1
