@@ -362,3 +362,44 @@ def test_a_fixed_step_allocates_nothing_on_micropython():
     m, att, s, fx, on = _stages(every=4)
     fx.angle_floats = False
     assert heap_bytes(lambda: fx.step(1000, True), 200) == 0  # the gyro sum, and every fourth the update
+
+
+def test_a_flight_takes_the_fixed_estimator_with_the_fixed_rate_loop_and_goes_on_from_it():
+    from configfakes import FakeBoard
+
+    from hoverfly.core.flight import Flight
+
+    class RollingBoard(FakeBoard):
+        def read_imu(self, gyro_rad_s, accel_m_s2):
+            ok = FakeBoard.read_imu(self, gyro_rad_s, accel_m_s2)
+            gyro_rad_s[0] = 0.5  # a steady roll rate (the gyro calibration needs a second: not yet)
+            gyro_rad_s[1] = 0.0
+            gyro_rad_s[2] = 0.0
+            return ok
+
+    def fly(pid_math, passes, f=None, t=1000):
+        if f is None:
+            f = Flight(RollingBoard())
+            f.params.set("pid_math", pid_math)
+            f.start(t)
+        for _ in range(passes):
+            t += 1000
+            f.step(t)
+        return f, t
+
+    fx, t = fly("fixed", 400)
+    fl, _ = fly("float", 400)
+    assert fx._fixed_att_on and fx.fixed_att.active and not fl._fixed_att_on
+    ax = fx.signals.attitude
+    af = fl.signals.attitude
+    assert ax.roll_rad > 0.05  # it rolled (against the accelerometer's pull to level)
+    # the same flight through either estimator (their IMU filters differ by Q16 steps too)
+    assert abs(ax.roll_rad - af.roll_rad) < 1e-4 and abs(ax.cos_tilt - af.cos_tilt) < 1e-4
+    assert list(ax.angles) == [ax.roll_rad, ax.pitch_rad, ax.yaw_rad, ax.cos_tilt]
+    # the float stage takes over from the quaternion the fixed one left: no jump
+    roll = ax.roll_rad
+    fx.params.set("pid_math", "float")
+    fx.configure()
+    assert not fx._fixed_att_on and not fx.fixed_att.active
+    fly("float", 1, fx, t)
+    assert abs(ax.roll_rad - roll) < 0.5 * 0.001 + 1e-4

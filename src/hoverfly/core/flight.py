@@ -52,6 +52,8 @@ from hoverfly.core.failsafe import (
     FaultWatch,
 )
 from hoverfly.core.filters import AccelFilter, GyroFilter
+from hoverfly.core.fixedatt import HAS_ACCEL as _FIXED_ATT_ACCEL
+from hoverfly.core.fixedatt import FixedAttitude
 from hoverfly.core.fixedimu import HAS_ACCEL as _FIXED_IMU_ACCEL
 from hoverfly.core.fixedimu import FixedImuFilter
 from hoverfly.core.fixedrate import FixedRate
@@ -88,6 +90,8 @@ class Flight:
         self.fixed_imu = FixedImuFilter()  # the IMU filters in fixed point, with the fixed rate loop
         self._fixed_imu_on = False
         self._fixed_out_on = False  # the output stage's motor commands in fixed point, likewise
+        self.fixed_att = FixedAttitude()  # the estimator (Mahony) in fixed point, likewise
+        self._fixed_att_on = False
         self.output = OutputStage()
         self.arming = Arming(self.events)
         self.motor_test = MotorTest(self.arming)
@@ -170,6 +174,9 @@ class Flight:
             self.gyro_filter, self.accel_filter, self.signals, self.calibration.bias_rad_s,
             self._fixed_on and (p.get("pid_math") == "fixed" or _FIXED_IMU_ACCEL))
         self._fixed_out_on = self._fixed_on and (p.get("pid_math") == "fixed" or _FIXED_OUT_ACCEL)
+        self._fixed_att_on = self.fixed_att.configure(
+            self.mahony, self.signals.attitude, self.signals, hz, self._att_every,
+            self._fixed_on and (p.get("pid_math") == "fixed" or _FIXED_ATT_ACCEL))
         self.motor_count = self.mixer.n
         self.arming.configure(p)
         if p.get("arm_source") == "seed001":
@@ -190,6 +197,7 @@ class Flight:
         self._rx_timeout_us = p.get("rx_timeout_ms") * 1000
         self._airmode_thr = p.get("airmode_thr_pct") * 0.01
         self._fs_switch_mode = FS_SWITCH_MODES.index(p.get("fs_switch_mode"))
+        self._airmode_from_switch()
         self._configured_at = p.changed
 
     def _att_restart(self):
@@ -217,9 +225,6 @@ class Flight:
         board = self.board
         dt_us = ticks_diff(now_us, self._last_us)
         self.pass_dt_us = dt_us
-        dt_s = dt_us * 1e-6
-        if dt_s <= 0.0:
-            dt_s = 1.0 / self.loop_hz
         self._last_us = now_us
         self.scheduler.pass_started(now_us)
 
@@ -246,8 +251,10 @@ class Flight:
         elif self._first_imu:
             self.mahony.level_from_accel(s.accel_raw_m_s2, s.attitude)
             self._first_imu = False
+        elif self._fixed_att_on:  # the gyro average and the update every _att_every passes, as below
+            self.fixed_att.step(dt_us, self.arming.armed)
         elif self._att_every == 1:
-            self.mahony.update(s.gyro_rad_s, s.accel_m_s2, dt_s, self.arming.armed, s.attitude)
+            self.mahony.update(s.gyro_rad_s, s.accel_m_s2, self._dt_s(dt_us), self.arming.armed, s.attitude)
         else:  # below the loop rate (Betaflight runs its attitude at 100 Hz): the gyro averaged since the last update
             g = s.gyro_rad_s
             acc = self._att_sum
@@ -276,7 +283,7 @@ class Flight:
         if self._fixed_on:
             self.fixed.update(sp, s.attitude, dt_us, self.i_active, self.airmode_active)
         else:
-            self.controller.update(sp, s.attitude, s.gyro_rad_s, dt_s, self.i_active, self.mixer.saturated,
+            self.controller.update(sp, s.attitude, s.gyro_rad_s, self._dt_s(dt_us), self.i_active, self.mixer.saturated,
                                    s.torque_norm)
             self.mixer.update(sp.throttle_norm, s.torque_norm, self.airmode_active, s.motor_norm)
         # 6. outputs: idle..max while armed, a bench motor test while disarmed, then the board's codec
@@ -308,56 +315,82 @@ class Flight:
         if log_pass is not None:
             log_pass(now_us)
 
+    def _dt_s(self, dt_us):
+        """The pass's dt in seconds, for the float stages (a float: the fixed-point pass takes dt_us)."""
+        if dt_us > 0:
+            return dt_us * 1e-6
+        return 1.0 / self.loop_hz
+
     def command(self, sp):
         """Who flies: the pilot, the autopilot (seed 004) or the failsafe; and whether I-term and
         air mode may act. sp arrives holding the pilot's smoothed sticks."""
         rc = self.rc
-        mode = rc.mode
-        fs = self.failsafe
-        ap = self.autopilot
-        now_us = self._last_us
-        if rc.frames != self._rc_frames_seen:  # a new frame from the pilot: the enabling procedure
-            self._rc_frames_seen = rc.frames
-            ap.on_pilot_frame(now_us, rc.arm_switch, self.arming.armed)
-        if fs.state != IDLE:
+        if rc.frames != self._rc_frames_seen:
+            self._pilot_frame()
+        if self.failsafe.state != IDLE:
             # SAFETY: the failsafe outranks the pilot's stale sticks and the autopilot.
-            mode = MODE_ANGLE
-            sp.stick_norm[0] = 0.0
-            sp.stick_norm[1] = 0.0
-            sp.stick_norm[2] = 0.0
-            if fs.state == STAGE2:
-                if fs.procedure == PROC_GLIDE or fs.procedure == PROC_DROP:
-                    sp.throttle_norm = 0.0
-                else:
-                    sp.throttle_norm = fs.land_throttle_norm
-                    if fs.procedure == PROC_LAND:
-                        fs.note_accel(self.signals.accel_raw_m_s2)  # every pass: a 1 ms spike counts
-            rc.fill_setpoint(sp)
-        elif ap.apply(now_us, sp, rc.stick_raw, rc.throttle_raw):
-            rc.fill_setpoint(sp)
+            mode = self._failsafe_setpoint(sp)
+        else:
+            mode = rc.mode
+            if self.autopilot.apply(self._last_us, sp, rc.stick_raw, rc.throttle_raw):
+                rc.fill_setpoint(sp)
         if mode != self._mode:
             self._mode = mode
             self.events.record(self._last_us, EV_MODE, mode)
         sp.mode = mode
-        armed = self.arming.armed
-        if not armed:
-            self._throttle_was_up = False
-        elif sp.throttle_norm > self._airmode_thr and not self._throttle_was_up:
-            self._throttle_was_up = True
         # Until the throttle has been raised once after arming the craft sits on the ground:
         # no I-term wind-up against the ground, no air-mode spin-up (Betaflight's airmode start).
-        self.i_active = armed and self._throttle_was_up
+        armed = self.arming.armed
+        if armed:
+            if self._throttle_was_up:
+                i_active = True
+            elif sp.throttle_norm > self._airmode_thr:
+                self._throttle_was_up = i_active = True
+            else:
+                i_active = False
+        else:
+            self._throttle_was_up = i_active = False
+        self.i_active = i_active
         # Air mode: the airmode parameter, or with an AIRMODE channel set only its switch (in range = on).
-        self.airmode_enabled = rc.airmode_switch if rc.airmode_box else self.mixer.airmode
-        active = self.i_active and self.airmode_enabled
+        active = i_active and self.airmode_enabled
         if active != self.airmode_active:
             self.airmode_active = active
             if armed:  # air mode starts (1) or the switch turns it off in flight (0)
                 self.events.record(self._last_us, EV_AIRMODE, 1 if active else 0)
-        if not self.i_active:
-            self.controller.roll.i = 0.0
-            self.controller.pitch.i = 0.0
-            self.controller.yaw.i = 0.0
+        if not i_active:
+            c = self.controller
+            c.roll.i = 0.0
+            c.pitch.i = 0.0
+            c.yaw.i = 0.0
+
+    def _pilot_frame(self):
+        """A new frame from the pilot: the autopilot's enabling procedure, the AIRMODE switch."""
+        rc = self.rc
+        self._rc_frames_seen = rc.frames
+        self.autopilot.on_pilot_frame(self._last_us, rc.arm_switch, self.arming.armed)
+        self._airmode_from_switch()
+
+    def _failsafe_setpoint(self, sp):
+        """The failsafe's setpoint: level (angle mode, sticks centred) and its throttle in stage 2."""
+        fs = self.failsafe
+        sp.stick_norm[0] = 0.0
+        sp.stick_norm[1] = 0.0
+        sp.stick_norm[2] = 0.0
+        if fs.state == STAGE2:
+            if fs.procedure == PROC_GLIDE or fs.procedure == PROC_DROP:
+                sp.throttle_norm = 0.0
+            else:
+                sp.throttle_norm = fs.land_throttle_norm
+                if fs.procedure == PROC_LAND:
+                    fs.note_accel(self.signals.accel_raw_m_s2)  # every pass: a 1 ms spike counts
+        self.rc.fill_setpoint(sp)
+        return MODE_ANGLE
+
+    def _airmode_from_switch(self):
+        """airmode_enabled: the AIRMODE switch when a channel is set for it, else the airmode parameter
+        (after each frame and each configure: nothing else changes it)."""
+        rc = self.rc
+        self.airmode_enabled = rc.airmode_switch if rc.airmode_box else self.mixer.airmode
 
     # -------------------------------------------------------------- slow tasks
     def task_rx(self, now_us):
