@@ -17,11 +17,11 @@ if sys.implementation.name == "micropython":
     # one at a time, leaves first, collecting in between (the device loads precompiled .mpy).
     import gc
 
-    for _name in ("drivers.orientation", "drivers.imu", "drivers.mpu6050", "core.params", "core.events",
-                  "core.filters", "accel.imufilter", "core.fixedimu", "core.control", "core.estimator", "core.mixer",
-                  "core.pid", "accel.rate", "core.fixedrate", "core.arming", "core.failsafe", "core.rc",
-                  "core.scheduler", "core.signals", "accel.output", "core.output", "core.receiver", "core.logger",
-                  "core.flight"):
+    for _name in ("accel.mpu6050", "drivers.orientation", "drivers.imu", "drivers.mpu6050", "core.params",
+                  "core.events", "core.filters", "accel.imufilter", "core.fixedimu", "core.control", "core.estimator",
+                  "accel.att", "core.fixedatt", "core.mixer", "core.pid", "accel.rate", "core.fixedrate",
+                  "core.arming", "core.failsafe", "accel.rc", "core.rc", "core.scheduler", "core.signals",
+                  "accel.output", "accel.dshot", "core.output", "core.receiver", "core.logger", "core.flight"):
         gc.collect()
         try:
             __import__("hoverfly." + _name)

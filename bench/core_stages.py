@@ -166,7 +166,10 @@ def install_stages(board, f):
     else:
         probe(f.gyro_filter, "update", "gyro_filter (math)", 3)
         probe(f.accel_filter, "update", "accel_filter (math)", 2)
-    probe(f.mahony, "update", "mahony (math)", 5)
+    if f._fixed_att_on:  # with the fixed rate loop: the estimator's gyro average and update in fixed point
+        probe(f.fixed_att, "step", "fixed: estimator", 2)
+    else:
+        probe(f.mahony, "update", "mahony (math)", 5)
     probe(f.rc, "update", "rc.update", 1)
     probe(f, "command", "flight.command", 1)
     if f._fixed_on:  # pid_math: the controller and mixer as one fixed-point pass (MicroPython)

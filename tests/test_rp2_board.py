@@ -73,9 +73,10 @@ print("RESULT " + json.dumps(r))
 """
 
 
-def run_board(tmp_path, body, seconds, imu="mpu6050", judge=5.0, heap="1m", usb="False", hook="", lib=None):
+def run_board(tmp_path, body, seconds, imu="mpu6050", judge=5.0, heap="2m", usb="False", hook="", lib=None):
     """The board's main loop under MicroPython for `seconds`, from the sources (or from `lib`, a flash
-    bundle's lib/); the RESULT it printed."""
+    bundle's lib/); the RESULT it printed. (2 MB: compiling the core from source on the 64-bit VM leaves a
+    fragmented 1 MB heap without room for the storage's 10 kB image; a board loads precompiled .mpy.)"""
     values = {"airframe": repr(load_airframe("5inch")), "judge": judge, "imu": imu, "usb": usb,
               "storage": str(tmp_path / "params.bin"), "seconds": seconds}
     script = tmp_path / "run.py"
