@@ -52,7 +52,7 @@ def _env(lib):
 
 
 def _time(mp, lib):
-    out = subprocess.run([mp, "-X", "heapsize=384k", os.path.join(HERE, "core_loop.py")], capture_output=True,
+    out = subprocess.run([mp, "-X", "heapsize=512k", os.path.join(HERE, "core_loop.py")], capture_output=True,
                          text=True, env=_env(lib), check=True).stdout
     return json.loads(out.strip().splitlines()[-1])
 

@@ -7,14 +7,14 @@ instructions a pass executes does not, so this is the figure to compare two vers
 Each runtime flies bench/core_loop.py's armed flight (armed_flight(): an MPU-6050 burst through the
 driver, a CRSF frame every 4th pass, DShot words) and then either steps it PASSES times or only
 advances its clock as often; the difference of the two runs' instruction counts, divided by
-PASSES, is one pass. Garbage is collected as the rp2 main loop collects it (boards/rp2/main.run;
-bench/core_loop.py's timed_passes): once half of what the last collection freed is used up, with the
-heap bench/core_loop.py runs in (384 KB). The collections themselves (callgrind's inclusive count of
-gc_collect) are taken out of both runs: a pass is counted with the allocator working on the heap a board
-keeps, collection not. (Until 2026-12 the collector was off for all the counted passes, so the allocator's
-free-block search grew with 300 passes of garbage and dominated small differences.) Prints one JSON
-object: {passes, micropython: {ir_per_pass}, cpython: {ir_per_pass}} (a runtime that is missing is left
-out with the reason).
+PASSES, is one pass. Garbage is collected as the rp2 main loop collects it (boards/rp2/main.run and
+bench/core_loop.py's timed_passes keep the same HeapWatch): once half of what the last collection freed
+is used up, with the heap bench/core_loop.py runs in (512 KB). The collections and the looks at the free
+heap (callgrind's inclusive counts of gc_collect and gc_info) are taken out of both runs: a pass is counted
+with the allocator working on the heap a board keeps, collection not. (Until 2026-12 the collector was off
+for all the counted passes, so the allocator's free-block search grew with 300 passes of garbage and
+dominated small differences.) Prints one JSON object: {passes, micropython: {ir_per_pass}, cpython:
+{ir_per_pass}} (a runtime that is missing is left out with the reason).
 """
 
 import sys
@@ -25,15 +25,17 @@ PASSES = 300
 def _child(mode, passes):
     from core_loop import GC_FREE_FRACTION, armed_flight
     from hoverfly.compat import collect_garbage, mem_free
+    from hoverfly.core.scheduler import HeapWatch
 
     board, f, t = armed_flight()
+    watch = HeapWatch(mem_free, GC_FREE_FRACTION)
     collect_garbage()
-    free_min = mem_free() // GC_FREE_FRACTION
+    watch.collected()
     step = mode == "pass"
     for _ in range(passes):
-        if mem_free() < free_min:
+        if watch.due() and watch.need():
             collect_garbage()
-            free_min = mem_free() // GC_FREE_FRACTION
+            watch.collected()
         t += 1000
         board.t = t
         if step:
@@ -41,7 +43,8 @@ def _child(mode, passes):
 
 
 def _count(cmd, env):
-    """Instructions `cmd` executes under callgrind, less its garbage collections (gc_collect, inclusive)."""
+    """Instructions `cmd` executes under callgrind, less its garbage collections and its looks at the free heap
+    (gc_collect and gc_info, inclusive)."""
     import os
     import re
     import subprocess
@@ -54,8 +57,11 @@ def _count(cmd, env):
         report = subprocess.run(["callgrind_annotate", "--inclusive=yes", "--threshold=100", out_file],
                                 capture_output=True, text=True, check=True).stdout
     total = int(re.search(r"([\d,]+)\s+\(100\.0%\)\s+PROGRAM TOTALS", report).group(1).replace(",", ""))
-    collect = re.search(r"^\s*([\d,]+)\s.*:gc_collect \[", report, re.M)
-    return total - (int(collect.group(1).replace(",", "")) if collect else 0)
+    for name in ("gc_collect", "gc_info"):  # the collections, and the looks at the free heap (gc.mem_free)
+        m = re.search(r"^\s*([\d,]+)\s.*:%s \[" % name, report, re.M)
+        if m:
+            total -= int(m.group(1).replace(",", ""))
+    return total
 
 
 def ir_per_pass(cmd, env, passes=PASSES):
@@ -87,7 +93,7 @@ def main():
         result["micropython"] = {"error": "no micropython VM"}
     else:
         env = dict(os.environ, MICROPYPATH="%s:%s" % (os.path.join(root, "src"), here))
-        runtimes.insert(0, ("micropython", [mp, "-X", "heapsize=384k", me], env))
+        runtimes.insert(0, ("micropython", [mp, "-X", "heapsize=512k", me], env))
     for name, cmd, env in runtimes:
         result[name] = {"ir_per_pass": ir_per_pass(cmd, env)}
     print(json.dumps(result))

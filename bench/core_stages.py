@@ -20,7 +20,7 @@ are already counted in it. Per-call figures are the best (lowest) of three runs.
     python3 bench/core_stages.py
     MICROPYPATH=src .venv/bin/micropython -X heapsize=1m bench/core_stages.py
 
-(1 MB heap: the probes and more flights do not fit the 384 KB bench/core_loop.py runs in.)
+(1 MB heap: the probes and more flights do not fit the 512 KB bench/core_loop.py runs in.)
 """
 
 import sys

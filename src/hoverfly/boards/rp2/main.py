@@ -6,7 +6,9 @@ builds the Flight, attaches the configuration links (core/links.py: CLI + MSP on
 maintenance protocol on the HC-05 UART, a 100 Hz task) and runs the pass at `loop_hz` on the
 tick clock. After each pass it collects garbage only when the time left before the next
 pass is larger than a collection costs and the free heap is getting low — never
-mid-pass. It measures the loop: pass time, jitter against the period, overruns, GC runs
+mid-pass (core/scheduler.py `HeapWatch`: gc.mem_free() walks the whole heap, so it is asked
+only when the allocation rate measured so far says the threshold may be near). It measures
+the loop: pass time, jitter against the period, overruns, GC runs
 (`LoopStats`, printed when the loop ends).
 
 Bad input never spins a motor: a missing or unsupported IMU, an IMU bus error in flight
@@ -20,12 +22,13 @@ status and the exception, and returns to the REPL. MicroPython-only.
 import gc
 
 from hoverfly.compat import print_exception, ticks_add, ticks_diff
+from hoverfly.core.scheduler import HeapWatch
 
 # A collection of the Pico's ~200 KB heap takes milliseconds on an RP2040
 # (reference/micropython.md §2.5): start one only when the slack left before the next pass
 # is longer than the last collection took (this guess until one has been measured).
 GC_GUESS_US = 1000
-GC_FREE_FRACTION = 2  # and only once half of what the last collection freed is used up
+GC_FREE_FRACTION = 2  # and only once half of what the last collection freed is used up (core/scheduler.py HeapWatch)
 
 
 class LoopStats:
@@ -121,10 +124,11 @@ def run(board, flight, stats, passes=-1, on_pass=None):
     next_us = ticks_add(now, period)
     mem_free = getattr(gc, "mem_free", None)
     collect = gc.collect
-    free_min = 0
-    if mem_free is not None:
+    # gc.mem_free() walks the whole heap: the watch asks it only when a collection may be near.
+    watch = HeapWatch(mem_free, GC_FREE_FRACTION) if mem_free is not None else None
+    if watch is not None:
         collect()
-        free_min = mem_free() // GC_FREE_FRACTION
+        watch.collected()
     step = flight.step
     gc_cost_us = GC_GUESS_US
     while passes != 0:
@@ -146,19 +150,19 @@ def run(board, flight, stats, passes=-1, on_pass=None):
         if on_pass is not None:
             on_pass(flight)
         # GC in the slack: only if it fits before the next pass, and only when needed.
-        left = ticks_diff(next_us, board.now_us())
-        if mem_free is not None and mem_free() < free_min:
-            if left > gc_cost_us:
+        if watch is not None and watch.due():
+            if ticks_diff(next_us, board.now_us()) > gc_cost_us:
                 t0 = board.now_us()
-                collect()
-                g = ticks_diff(board.now_us(), t0)
-                gc_cost_us = g
-                free_min = mem_free() // GC_FREE_FRACTION
-                stats.gc_runs += 1
-                if g > stats.gc_max_us:
-                    stats.gc_max_us = g
+                if watch.need():
+                    collect()
+                    watch.collected()
+                    g = ticks_diff(board.now_us(), t0)
+                    gc_cost_us = g
+                    stats.gc_runs += 1
+                    if g > stats.gc_max_us:
+                        stats.gc_max_us = g
             else:
-                stats.gc_skipped += 1
+                stats.gc_skipped += 1  # a look at the heap (and maybe a collection) was due: no slack for it
         board.wait_until(next_us)
         next_us = ticks_add(next_us, period)
         if ticks_diff(board.now_us(), next_us) > 0:
