@@ -52,6 +52,10 @@ _ANALOG = (analog.ONESHOT125, analog.ONESHOT42, analog.MULTISHOT, analog.PWM)
 MAX_SERVOS = 4
 _INV16 = 1.0 / 65536.0
 
+# OutputEncoder.write's encode for a motor_out it has seen: the viper twin on the float32 bits, or
+# (no viper) the Python twin, which takes any sequence.
+_encode_seen = encode_planned_f32 if encode_planned_f32 is not None else encode_planned
+
 _update_fixed = None
 if IS_MICROPYTHON:
     try:
@@ -386,7 +390,7 @@ class OutputEncoder:
         # One call encodes every motor onto its line (DshotEncoder.plan); on MicroPython the viper twin
         # reads an array('f')'s float32 bits and makes no float (_f32: one seen before, DShot only).
         if motor_out is self._f32 or (self.dshot and self._takes_bits(motor_out)):
-            r = encode_planned_f32(motor_out, count, self._plan, self.words)
+            r = _encode_seen(motor_out, count, self._plan, self.words)
         elif self.dshot:
             r = encode_planned(motor_out, count, self._plan, self.words)
         else:
@@ -427,8 +431,12 @@ class OutputEncoder:
 
     def _takes_bits(self, motor_out):
         """True (and remembered) when the viper encode may read motor_out's bits: an array of 4-byte
-        floats. Anything else (a list, array('d')) takes the Python encode."""
-        if encode_planned_f32 is None or type(motor_out) is not array:
+        floats. Anything else (a list, array('d')) takes the Python encode. Without viper the Python
+        encode takes anything, so the first motor_out is remembered at once."""
+        if encode_planned_f32 is None:
+            self._f32 = motor_out
+            return True
+        if type(motor_out) is not array:
             return False
         n = len(motor_out)
         if n < self.motor_count or len(bytes(motor_out)) != 4 * n or (n and type(motor_out[0]) is not float):
