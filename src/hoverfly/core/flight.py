@@ -394,35 +394,45 @@ class Flight:
 
     # -------------------------------------------------------------- slow tasks
     def task_rx(self, now_us):
-        s = self.signals
         rx = self.receiver
-        fresh = rx.update(now_us, self.board)
-        if fresh:
-            self.fs_switch = self.rc.fs_switch_in(rx.channels_us)
-            if self.fs_switch and self._fs_switch_mode != SWITCH_KILL:
-                # SAFETY: failsafe switch (stage1/stage2): the frame is dropped as if it never came,
-                # so the link watch times out below and the failsafe runs as for a lost receiver.
-                fresh = False
-        if fresh:
+        if not rx.update(now_us, self.board):
+            # Most polls: no new frame (and no telemetry: it goes out only right after a frame).
+            if self.rx_ok and ticks_diff(now_us, self.last_frame_us) > self._rx_timeout_us:
+                self._rx_lost()
+            return
+        self._rx_frame(now_us, rx)
+
+    def _rx_lost(self):
+        self.rx_ok = False
+        self.events.record(self.last_frame_us, EV_RX_LOST, CAUSE_SWITCH if self.fs_switch else CAUSE_NO_FRAMES)
+
+    def _rx_frame(self, now_us, rx):
+        """A new frame: the failsafe switch, the pilot's sticks and switches, arming, telemetry."""
+        s = self.signals
+        rc = self.rc
+        fs_switch = self.fs_switch = rc.fs_switch_in(rx.channels_us)
+        if fs_switch and self._fs_switch_mode != SWITCH_KILL:
+            # SAFETY: failsafe switch (stage1/stage2): the frame is dropped as if it never came,
+            # so the link watch times out and the failsafe runs as for a lost receiver.
+            if self.rx_ok and ticks_diff(now_us, self.last_frame_us) > self._rx_timeout_us:
+                self._rx_lost()
+        else:
             self.last_frame_us = now_us
             rx.copy_channels(s.rc_channels_us)
-            self.rc.new_frame(s.rc_channels_us)
+            rc.new_frame(s.rc_channels_us)
             if not self.rx_ok:
                 self.rx_ok = True
                 self.events.record(now_us, EV_RX_RESTORED, 0)
-            if self.fs_switch:
+            if fs_switch:
                 # SAFETY: failsafe switch, kill: disarm on this frame; BOXFAILSAFE blocks the arm
                 # switch from this frame on (task_arming keeps it while the switch stays on).
                 self.arming.disarm(now_us, DISARM_FS_SWITCH)
                 self.arming.flags |= 1 << BOXFAILSAFE
             if self.failsafe.state == IDLE:
-                self.arming.on_switch(now_us, self.rc.arm_switch)
+                self.arming.on_switch(now_us, rc.arm_switch)
             log_rc = self.log_rc  # the every-pass logger's input_rc for this frame, else None (Logger sets it)
             if log_rc is not None:
                 log_rc()
-        elif self.rx_ok and ticks_diff(now_us, self.last_frame_us) > self._rx_timeout_us:
-            self.rx_ok = False
-            self.events.record(self.last_frame_us, EV_RX_LOST, CAUSE_SWITCH if self.fs_switch else CAUSE_NO_FRAMES)
         if rx.telemetry_due(now_us):
             rx.send_telemetry(now_us, self.board, s, s.setpoint.mode, self.airmode_enabled, self.failsafe.state != IDLE,
                               self.arming.armed, self.arming.flags)
