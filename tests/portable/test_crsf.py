@@ -276,3 +276,27 @@ def test_make_decoder_builds_each_protocol():
     except ValueError:
         raised = True
     assert raised
+
+
+def test_telemetry_encoders_take_nan_and_infinity_without_raising_or_hanging():
+    # given values a failing sensor or estimator could hand over, when each telemetry frame is encoded,
+    # then it is a valid frame with the field at 0 or clamped: never an exception in the receiver task,
+    # never an endless angle wrap
+    from hoverfly.protocols.crsf import encode_attitude, encode_battery, encode_gps
+
+    nan = float("nan")
+    inf = float("inf")
+    out = bytearray(32)
+    for bad in (nan, inf, -inf, 1e300, -1e300):
+        assert encode_battery(out, bad, bad, bad, bad) == 12
+        assert out[11] == crsf.crc8_dvb_s2(out[2:11])
+        assert encode_attitude(out, bad, bad, bad) == 10
+        assert encode_gps(out, bad, bad, bad, bad, bad, bad) == 19
+    encode_battery(out, nan, inf, -inf, nan)
+    assert out[3:11] == bytes([0, 0, 0xFF, 0xFF, 0, 0, 0, 0])  # NaN 0, +inf clamped, -inf 0
+    encode_attitude(out, nan, inf, 0.5)
+    assert out[3:9] == bytes([0, 0, 0, 0, 0x13, 0x88])  # no angle for NaN/inf; 0.5 rad is 5000
+    # integer degrees x 1e7 pass as they are (a float would lose their last digits on a float32 port)
+    encode_gps(out, 473977418, -1223312345, 0.0, 0.0, 0.0, 7)
+    assert out[3:7] == (473977418).to_bytes(4, "big")
+    assert out[7:11] == (-1223312345 & 0xFFFFFFFF).to_bytes(4, "big")

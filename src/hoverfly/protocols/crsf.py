@@ -280,11 +280,21 @@ def _put_u32(out, p, v):
     out[p + 3] = v & 0xFF
 
 
+_BIG = 2147483647.0  # past every field: a value beyond it (or infinite) is clamped before int()
+
+
 def _round(x):
-    """Round half away from zero to int (the firmware's +0.5 idiom, symmetric)."""
+    """Round half away from zero to int (the firmware's +0.5 idiom, symmetric); NaN 0, beyond +-2**31 clamped
+    (the fields clamp further)."""
     if x < 0:
+        if x < -_BIG:
+            return -2147483647
         return -int(-x + 0.5)
-    return int(x + 0.5)
+    if x >= 0:
+        if x > _BIG:
+            return 2147483647
+        return int(x + 0.5)
+    return 0  # NaN
 
 
 def encode_rc_frame_raw(channels_raw, out=None, sync=SYNC_FC):
@@ -324,10 +334,26 @@ def encode_link_statistics(rssi1_dbm=-60, rssi2_dbm=-60, link_quality_pct=100, s
     return out
 
 
-def _ufield(x, hi):
-    """_clamp(_round(x), 0, hi) in one call: an unsigned field, rounded half up, clamped."""
-    if x < 0:
+def _whole(x):
+    """An integer field's value: an int as it is (a float32 cannot hold degrees x 1e7 to the unit), a float
+    truncated toward zero as int() does, NaN 0, infinities clamped."""
+    if isinstance(x, int):
+        return x
+    if x != x:
         return 0
+    if x > _BIG:
+        return 2147483647
+    if x < -_BIG:
+        return -2147483647
+    return int(x)
+
+
+def _ufield(x, hi):
+    """_clamp(_round(x), 0, hi) in one call: an unsigned field, rounded half up, clamped (NaN 0)."""
+    if not (x > 0):  # below 0, 0, or NaN
+        return 0
+    if x >= hi:  # and infinity
+        return hi
     v = int(x + 0.5)
     return hi if v > hi else v
 
@@ -360,6 +386,8 @@ def encode_battery(out, voltage_v, current_a, used_mah, remaining_pct):
 
 def _angle_wire(angle_rad):
     # Wrap into [-pi, pi], then 100 µrad units truncated toward zero (Betaflight's int16 cast).
+    if not (-1000.0 < angle_rad < 1000.0):  # NaN or infinite (the wrap below would never end): no angle
+        return 0
     while angle_rad > 3.141592653589793:
         angle_rad -= 6.283185307179586
     while angle_rad < -3.141592653589793:
@@ -421,13 +449,13 @@ def encode_gps(out, lat_deg_e7, lon_deg_e7, ground_speed_m_s, course_rad, altitu
     (0..35999); altitude -> metres + 1000 (u16); satellites u8.
     """
     out[2] = TYPE_GPS
-    _put_u32(out, 3, _clamp(int(lat_deg_e7), -900000000, 900000000) & 0xFFFFFFFF)
-    _put_u32(out, 7, _clamp(int(lon_deg_e7), -1800000000, 1800000000) & 0xFFFFFFFF)
+    _put_u32(out, 3, _clamp(_whole(lat_deg_e7), -900000000, 900000000) & 0xFFFFFFFF)
+    _put_u32(out, 7, _clamp(_whole(lon_deg_e7), -1800000000, 1800000000) & 0xFFFFFFFF)
     _put_u16(out, 11, _clamp(_round(ground_speed_m_s * 36), 0, 0xFFFF))
     course = _round(course_rad * 5729.5779513082320876) % 36000  # rad -> centidegrees
     _put_u16(out, 13, course)
     _put_u16(out, 15, _clamp(_round(altitude_m) + 1000, 0, 0xFFFF))
-    out[17] = _clamp(int(satellites), 0, 255)
+    out[17] = _clamp(_whole(satellites), 0, 255)
     return _finish(out, 19)
 
 
