@@ -35,20 +35,9 @@ accelerometer, 32..44 the products, then the angles staged for the encode. The a
 
 import micropython
 
-# floor(log2(i)) for i in 1..255 (0 for 0): the encode's exponent, a byte at a time
-LOG2 = bytearray(256)
-for _i in range(2, 256):
-    LOG2[_i] = LOG2[_i >> 1] + 1
+from hoverfly.accel.addr import LOG2, bind  # noqa: F401  (the stage's configure binds through them)
+
 TAB_SIZE = 16  # eight addresses of two words
-
-
-@micropython.viper
-def bind(tab, k: int, buf):
-    """Write the address of buf's data (an array or bytearray) into tab's entry k (two words)."""
-    t = ptr32(tab)
-    v = int(ptr32(buf))
-    t[2 * k] = v
-    t[2 * k + 1] = (v >> 16) >> 16
 
 
 @micropython.viper

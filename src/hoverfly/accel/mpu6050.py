@@ -41,6 +41,8 @@ tests/portable/test_mpu6050_twins.py checks the twins agree.
 import micropython
 from micropython import const
 
+from hoverfly.accel.addr import bind  # noqa: F401  (the stage's configure binds through it)
+
 # The state layout (the same numbers as drivers/mpu6050.py's ST_*; the twin test checks them).
 ST_OFF = const(0)  # 0..2: body axis k's chip axis as a byte offset in the burst (0/2/4)
 ST_FLIP = const(3)  # 3..5: 1 if body axis k is that chip axis negated
@@ -57,15 +59,6 @@ ST_TEMP = const(22)  # TEMP_OUT, signed (written here, read by Python only)
 ST_RAW = const(23)  # 23..28: signed chip-frame counts, accel x y z, gyro x y z (ST_SCALED 0 only)
 BIAS_OFFSET = const(1048576)  # 2**20
 SAME_CAP = const(16777216)  # 2**24: the same-sample count stops here (the flags stay within 2**27)
-
-
-@micropython.viper
-def bind(tab, k: int, buf):
-    """Write the address of buf's data (an array or bytearray) into tab's entry k (two words)."""
-    t = ptr32(tab)
-    v = int(ptr32(buf))
-    t[2 * k] = v
-    t[2 * k + 1] = (v >> 16) >> 16
 
 
 @micropython.viper
