@@ -295,7 +295,8 @@ class Flight:
         else:
             output.update(s.motor_norm, armed, out)
         test = self.motor_test
-        test.update(now_us, armed, self.rc.arm_switch, self.rx_ok, out)
+        if test.active or not armed:  # armed with no test: nothing to end or write (it notes its inputs once disarmed)
+            test.update(now_us, armed, self.rc.arm_switch, self.rx_ok, out)
         # SAFETY: last word on the motors, after every stage: no mode, scenario or protocol
         # spins a disarmed motor; only an active motor test (disarmed, props-off acknowledged,
         # refreshed every second) may.
