@@ -1,8 +1,9 @@
 """The board codec's one-call DShot encode (protocols/dshot.py `encode_planned`, its viper twin
-accel/dshot.py `encode_planned` on the float32 bits, and `OutputEncoder.write` on them) gives today's
-words: `DshotEncoder.encode_motors`' words, return value and clamp count for the same commands.
+accel/dshot.py `encode_planned` on the float32 bits, and `OutputEncoder.write` on them) gives the words
+made one motor at a time (`DshotEncoder._value` and the frame), their count and the clamp count for the
+same commands.
 
-Portable: on CPython (pytest) the Python twin is checked against encode_motors; under MicroPython
+Portable: on CPython (pytest) the Python twin is checked against that reference; under MicroPython
 (tests/portable/mprun.py) the viper twin must be the one chosen and must give the Python twin's bits
 on every input (NaN, infinities, below 0, above 1, subnormals, 1.0 and its neighbours), with the
 float32 product rounding of a float32 port checked against a float32 reference (`_f32`: a product
@@ -48,12 +49,18 @@ def _f32(x):
 
 
 def _todays_words(enc, norm, lines, words):
-    """DshotEncoder.encode_motors (the encoder as it was), motor k's word put on line k."""
-    scratch = array("H", [0] * 8)
-    r = enc.encode_motors(norm, True, scratch)
+    """The words made one motor at a time (DshotEncoder._value and the frame, as the encoder's armed
+    loop made them before the planned encode), motor k's word put on line k; returns how many are not
+    the stop word, and counts the clamps on enc."""
+    moving = 0
+    stop = dshot_frame(0, 0, enc.bidir)
     for k in range(enc.motor_count):
-        words[lines[k]] = scratch[k]
-    return r
+        w = dshot_frame(enc._value(norm[k], enc._low_fp, enc._span_fp), 1 if k == enc.telemetry_motor else 0,
+                        enc.bidir)
+        words[lines[k]] = w
+        if w != stop:
+            moving += 1
+    return moving
 
 
 def _configs():

@@ -30,18 +30,13 @@ from array import array
 
 from hoverfly.compat import IS_MICROPYTHON, const, ticks_add, ticks_diff
 
-# The armed per-motor loop of DshotEncoder.encode_motors: a viper twin on MicroPython
-# (accel/dshot.py, ~10x faster), else the Python loop below; tested equal.
-_encode_armed = None
 # The board codec's whole encode (OutputEncoder.write): `encode_planned` below, or its viper twin
 # on the float32 bits of an array('f'), which makes no float at all.
 encode_planned_f32 = None
 if IS_MICROPYTHON:
     try:
-        from hoverfly.accel.dshot import encode_armed as _encode_armed
         from hoverfly.accel.dshot import encode_planned as encode_planned_f32
     except (SyntaxError, ImportError, NameError, ValueError):
-        _encode_armed = None
         encode_planned_f32 = None
 
 VALUE_MAX = const(2047)
@@ -352,45 +347,12 @@ class DshotEncoder:
             for i in range(n):
                 out_words[i] = stop
             return 0
-        if _encode_armed is not None:
-            r = _encode_armed(motor_norm, n, self._low_fp, self._span_fp, self.stop_at_zero,
-                              self.telemetry_motor, bidir, out_words)
-            if r > 0xFF:
-                self.clamped += r >> 8
-            return r & 0xFF
-        low_fp = self._low_fp
-        span_fp = self._span_fp
-        stop_at_zero = self.stop_at_zero
-        tm = self.telemetry_motor
-        moving = 0
-        for i in range(n):
-            # _value() inline (a call per motor costs more than the arithmetic on MicroPython);
-            # test_dshot checks the two agree.
-            t = motor_norm[i]
-            v = -1
-            if t > 1.0:
-                t = 1.0
-                self.clamped += 1
-            elif not (t >= 0.0):  # below 0, or NaN
-                self.clamped += 1
-                if stop_at_zero:
-                    v = 0
-                else:
-                    t = 0.0
-            elif t == 0.0 and stop_at_zero:
-                v = 0
-            if v < 0:
-                v = (low_fp + int(span_fp * t)) >> 16
-                if v > VALUE_MAX:
-                    v = VALUE_MAX
-            w = (v << 1) | (1 if i == tm else 0)
-            if w:
-                moving += 1
-            c = w ^ (w >> 4) ^ (w >> 8)
-            if bidir:
-                c = ~c
-            out_words[i] = (w << 4) | (c & 0xF)
-        return moving
+        # The board codec's own encode with motor k on line k (a plan made per call: tools and tests use
+        # this method; OutputEncoder.write keeps its plan).
+        r = encode_planned(motor_norm, n, self.plan(range(n)), out_words)
+        if r > 0xFF:
+            self.clamped += r >> 8
+        return r & 0xFF
 
     def plan(self, lines):
         """The array('i') `encode_planned` follows for this encoder, motor k on line lines[k]."""
