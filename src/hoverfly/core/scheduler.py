@@ -93,12 +93,12 @@ class HeapWatch:
     """When a board's loop should collect garbage, in its slack: once `1/fraction` of what the last
     collection left free is still free (half used up, by default).
 
-    `mem_free()` (gc.mem_free) walks the heap's whole allocation table: about 14 µs for a 192 KB heap
-    on the MicroPython unix VM here, so milliseconds on an RP2040, more than a pass. So the watch does not
-    ask every pass: it measures the bytes a pass allocates between two looks and looks again halfway to
-    the threshold (every GC_CHECK_FIRST passes until it knows the rate, at most every GC_CHECK_MAX).
-    The loop calls `due()` every pass; when it is due and the slack allows, `need()` (one walk) says
-    whether to collect now, and after collecting, `collected()`."""
+    `mem_free()` (gc.mem_free) walks the heap's whole allocation table: 16-26 µs for a 192 KB heap on
+    the MicroPython unix VM here (bench/heap_look.py), so milliseconds on an RP2040, more than a pass.
+    So the watch does not ask every pass: it measures the bytes a pass allocates between two looks and
+    looks again halfway to the threshold (every GC_CHECK_FIRST passes until it knows the rate, at most
+    every GC_CHECK_MAX). The loop calls `due()` every pass; when it is due and the slack allows,
+    `need()` (one walk) says whether to collect now, and after collecting, `collected()`."""
 
     def __init__(self, mem_free, fraction=2):
         self.mem_free = mem_free
