@@ -130,6 +130,8 @@ class Flight:
         self._mode = -1
         self._use_external = False
         self._first_imu = True
+        self._imu_prepare = True  # _route() sets these two from the above
+        self._att_fixed_now = False
         # The estimator every _att_every passes (att_rate_hz), fed the gyro averaged since its last
         # update: the passes counted, their gyro summed (a list: reading it back boxes nothing on
         # MicroPython) and their ticks summed (an int: no float a pass).
@@ -198,6 +200,7 @@ class Flight:
         self._airmode_thr = p.get("airmode_thr_pct") * 0.01
         self._fs_switch_mode = FS_SWITCH_MODES.index(p.get("fs_switch_mode"))
         self._airmode_from_switch()
+        self._route()
         self._configured_at = p.changed
 
     def _att_restart(self):
@@ -221,22 +224,33 @@ class Flight:
 
     # ------------------------------------------------------------------ the pass
     def step(self, now_us):
-        s = self.signals
-        board = self.board
+        # The pass in stages of their own, each method's frame (locals and value stack) within 11
+        # machine words: a bigger one is taken from the heap and freed at every call on MicroPython
+        # (bench/frame_sizes.py), and with the pass's float results that costs more than the calls.
         dt_us = ticks_diff(now_us, self._last_us)
         self.pass_dt_us = dt_us
         self._last_us = now_us
         self.scheduler.pass_started(now_us)
+        self._sense(now_us, dt_us)  # 1. IMU and filters, 2. estimator
+        # 3. commander: the pilot's sticks, or the failsafe's
+        sp = self.signals.setpoint
+        self.rc.update(sp)
+        self.command(sp)
+        self._control(dt_us, sp)  # 4. controller and 5. mixer
+        self._outputs(now_us)  # 6. outputs
+        if ticks_diff(now_us, self.scheduler.next_due_us) >= 0:  # most passes run no task: not even the call
+            self.scheduler.run(now_us)
+        log_pass = self.log_pass  # the logger's update while a log is open, else None (Logger sets it)
+        if log_pass is not None:
+            log_pass(now_us)
 
-        # 1. IMU and filters
-        if board.read_imu(s.gyro_raw_rad_s, s.accel_raw_m_s2):
+    def _sense(self, now_us, dt_us):
+        """1. The IMU sample through the filters, 2. the estimator."""
+        s = self.signals
+        if self.board.read_imu(s.gyro_raw_rad_s, s.accel_raw_m_s2):
             self.imu_us = now_us
-            if not self.alignment.identity:  # a board mounted square (the usual case) needs no rotation
-                self.alignment.apply(s.gyro_raw_rad_s)
-                self.alignment.apply(s.accel_raw_m_s2)
-            if not self.calibration.calibrated:
-                if self.calibration.update(s.gyro_raw_rad_s):
-                    self.events.record(now_us, EV_GYRO_CALIBRATED, 0)
+            if self._imu_prepare:  # a board not mounted square, or the gyro calibration still running
+                self._prepare_imu(now_us)
             if self._fixed_imu_on:
                 self.fixed_imu.update()
             else:
@@ -244,15 +258,38 @@ class Flight:
                 self.accel_filter.update(s.accel_raw_m_s2, s.accel_m_s2)
         elif self.logger.active:  # no new sample: the log's integral_dt says so (Logger.update's full path)
             self.logger.full_pass_next()
-        # 2. estimator
+        if self._att_fixed_now:  # the gyro average and the update every _att_every passes, as _estimate
+            self.fixed_att.step(dt_us, self.arming.armed)
+        else:
+            self._estimate(dt_us)
+
+    def _prepare_imu(self, now_us):
+        """The sample rotated to the board's mounting, and the gyro calibration fed while it runs."""
+        s = self.signals
+        if not self.alignment.identity:  # a board mounted square (the usual case) needs no rotation
+            self.alignment.apply(s.gyro_raw_rad_s)
+            self.alignment.apply(s.accel_raw_m_s2)
+        if not self.calibration.calibrated:
+            if self.calibration.update(s.gyro_raw_rad_s):
+                self.events.record(now_us, EV_GYRO_CALIBRATED, 0)
+        self._route()
+
+    def _route(self):
+        """Which paths the pass takes, from what configure() and the first samples set."""
+        self._imu_prepare = not self.alignment.identity or not self.calibration.calibrated
+        self._att_fixed_now = self._fixed_att_on and not self._use_external and not self._first_imu
+
+    def _estimate(self, dt_us):
+        """2. The estimator, where FixedAttitude does not run it: the external attitude, the first level
+        from the accelerometer, or the float Mahony (every pass, or on the gyro averaged below the loop rate)."""
+        s = self.signals
         if self._use_external:
-            if board.read_attitude(s.external_q):
+            if self.board.read_attitude(s.external_q):
                 self.external.update_from_quaternion(s.external_q, s.attitude)
         elif self._first_imu:
             self.mahony.level_from_accel(s.accel_raw_m_s2, s.attitude)
             self._first_imu = False
-        elif self._fixed_att_on:  # the gyro average and the update every _att_every passes, as below
-            self.fixed_att.step(dt_us, self.arming.armed)
+            self._route()
         elif self._att_every == 1:
             self.mahony.update(s.gyro_rad_s, s.accel_m_s2, self._dt_s(dt_us), self.arming.armed, s.attitude)
         else:  # below the loop rate (Betaflight runs its attitude at 100 Hz): the gyro averaged since the last update
@@ -274,47 +311,57 @@ class Flight:
                 self.mahony.update(a, s.accel_m_s2, us * 1e-6 if us > 0 else n / self.loop_hz, self.arming.armed,
                                    s.attitude)
                 self._att_restart()
-        # 3. commander: the pilot's sticks, or the failsafe's
-        sp = s.setpoint
-        self.rc.update(sp)
-        self.command(sp)
-        # 4. controller and 5. mixer: in fixed point (pid_math; MicroPython's zero-allocation pass), or float
-        armed = self.arming.armed
+
+    def _control(self, dt_us, sp):
+        """4. The controller and 5. the mixer: in fixed point (pid_math; MicroPython's zero-allocation
+        pass), or float."""
         if self._fixed_on:
-            self.fixed.update(sp, s.attitude, dt_us, self.i_active, self.airmode_active)
+            self.fixed.update(sp, self.signals.attitude, dt_us, self.i_active, self.airmode_active)
         else:
-            self.controller.update(sp, s.attitude, s.gyro_rad_s, self._dt_s(dt_us), self.i_active, self.mixer.saturated,
-                                   s.torque_norm)
-            self.mixer.update(sp.throttle_norm, s.torque_norm, self.airmode_active, s.motor_norm)
-        # 6. outputs: idle..max while armed, a bench motor test while disarmed, then the board's codec
+            self._control_float(dt_us, sp)
+
+    def _control_float(self, dt_us, sp):
+        s = self.signals
+        self.controller.update(sp, s.attitude, s.gyro_rad_s, self._dt_s(dt_us), self.i_active, self.mixer.saturated,
+                               s.torque_norm)
+        self.mixer.update(sp.throttle_norm, s.torque_norm, self.airmode_active, s.motor_norm)
+
+    def _outputs(self, now_us):
+        """6. Outputs: idle..max while armed, a bench motor test while disarmed, then the board's codec."""
+        s = self.signals
+        armed = self.arming.armed
         out = s.motor_out
-        n = self.motor_count
-        output = self.output
         if self._fixed_out_on:
-            output.update_fixed(s.motor_norm, armed, out)
+            self.output.update_fixed(s.motor_norm, armed, out)
         else:
-            output.update(s.motor_norm, armed, out)
+            self.output.update(s.motor_norm, armed, out)
+        if not armed or self.motor_test.active:  # armed with no test: nothing to end or write
+            self._motor_test(now_us, armed, out)
+        self.board.write_motors(out, self.motor_count)
+        if self.mixer.servo_yaw:
+            self.output.servos(self.mixer.servo_norm, 1, armed, s.servo_norm)
+            self.board.write_servos(s.servo_norm, 1)
+        if self.output.bidir:
+            self._motor_telemetry()
+
+    def _motor_test(self, now_us, armed, out):
+        """The bench motor test (it notes its inputs once disarmed), then the motors' last word."""
         test = self.motor_test
-        if test.active or not armed:  # armed with no test: nothing to end or write (it notes its inputs once disarmed)
-            test.update(now_us, armed, self.rc.arm_switch, self.rx_ok, out)
+        test.update(now_us, armed, self.rc.arm_switch, self.rx_ok, out)
         # SAFETY: last word on the motors, after every stage: no mode, scenario or protocol
         # spins a disarmed motor; only an active motor test (disarmed, props-off acknowledged,
         # refreshed every second) may.
         if not armed and not test.active:
-            for i in range(n):
+            for i in range(self.motor_count):
                 out[i] = 0.0
-        board.write_motors(out, n)
-        if self.mixer.servo_yaw:
-            output.servos(self.mixer.servo_norm, 1, armed, s.servo_norm)
-            board.write_servos(s.servo_norm, 1)
-        if output.bidir and board.read_motor_telemetry(output.reply_codes, n):
+
+    def _motor_telemetry(self):
+        """Bidirectional DShot: the ESCs' replies since the last pass, decoded into eRPM and RPM."""
+        n = self.motor_count
+        output = self.output
+        if self.board.read_motor_telemetry(output.reply_codes, n):
+            s = self.signals
             output.decode_replies(n, s.motor_erpm, s.motor_rpm)
-        sched = self.scheduler
-        if ticks_diff(now_us, sched.next_due_us) >= 0:  # most passes run no task: not even the call
-            sched.run(now_us)
-        log_pass = self.log_pass  # the logger's update while a log is open, else None (Logger sets it)
-        if log_pass is not None:
-            log_pass(now_us)
 
     def _dt_s(self, dt_us):
         """The pass's dt in seconds, for the float stages (a float: the fixed-point pass takes dt_us)."""
@@ -339,6 +386,11 @@ class Flight:
             self._mode = mode
             self.events.record(self._last_us, EV_MODE, mode)
         sp.mode = mode
+        if not (self.i_active and self.arming.armed and self.airmode_active == self.airmode_enabled):
+            self._i_airmode(sp)  # in flight (armed, I-term on, air mode as set) nothing changes: not even the call
+
+    def _i_airmode(self, sp):
+        """Whether I-term and air mode may act."""
         # Until the throttle has been raised once after arming the craft sits on the ground:
         # no I-term wind-up against the ground, no air-mode spin-up (Betaflight's airmode start).
         armed = self.arming.armed
@@ -409,34 +461,42 @@ class Flight:
 
     def _rx_frame(self, now_us, rx):
         """A new frame: the failsafe switch, the pilot's sticks and switches, arming, telemetry."""
-        s = self.signals
-        rc = self.rc
-        fs_switch = self.fs_switch = rc.fs_switch_in(rx.channels_us)
+        fs_switch = self.fs_switch = self.rc.fs_switch_in(rx.channels_us)
         if fs_switch and self._fs_switch_mode != SWITCH_KILL:
             # SAFETY: failsafe switch (stage1/stage2): the frame is dropped as if it never came,
             # so the link watch times out and the failsafe runs as for a lost receiver.
             if self.rx_ok and ticks_diff(now_us, self.last_frame_us) > self._rx_timeout_us:
                 self._rx_lost()
         else:
-            self.last_frame_us = now_us
-            rx.copy_channels(s.rc_channels_us)
-            rc.new_frame(s.rc_channels_us)
-            if not self.rx_ok:
-                self.rx_ok = True
-                self.events.record(now_us, EV_RX_RESTORED, 0)
-            if fs_switch:
-                # SAFETY: failsafe switch, kill: disarm on this frame; BOXFAILSAFE blocks the arm
-                # switch from this frame on (task_arming keeps it while the switch stays on).
-                self.arming.disarm(now_us, DISARM_FS_SWITCH)
-                self.arming.flags |= 1 << BOXFAILSAFE
-            if self.failsafe.state == IDLE:
-                self.arming.on_switch(now_us, rc.arm_switch)
-            log_rc = self.log_rc  # the every-pass logger's input_rc for this frame, else None (Logger sets it)
-            if log_rc is not None:
-                log_rc()
+            self._take_frame(now_us, rx, fs_switch)
         if rx.telemetry_due(now_us):
-            rx.send_telemetry(now_us, self.board, s, s.setpoint.mode, self.airmode_enabled, self.failsafe.state != IDLE,
-                              self.arming.armed, self.arming.flags)
+            self._send_telemetry(now_us, rx)
+
+    def _take_frame(self, now_us, rx, fs_switch):
+        """The frame's channels to the pilot's sticks and switches, and to arming."""
+        channels = self.signals.rc_channels_us
+        self.last_frame_us = now_us
+        rx.copy_channels(channels)
+        self.rc.new_frame(channels)
+        if not self.rx_ok:
+            self.rx_ok = True
+            self.events.record(now_us, EV_RX_RESTORED, 0)
+        if fs_switch:
+            # SAFETY: failsafe switch, kill: disarm on this frame; BOXFAILSAFE blocks the arm
+            # switch from this frame on (task_arming keeps it while the switch stays on).
+            self.arming.disarm(now_us, DISARM_FS_SWITCH)
+            self.arming.flags |= 1 << BOXFAILSAFE
+        if self.failsafe.state == IDLE:
+            self.arming.on_switch(now_us, self.rc.arm_switch)
+        log_rc = self.log_rc  # the every-pass logger's input_rc for this frame, else None (Logger sets it)
+        if log_rc is not None:
+            log_rc()
+
+    def _send_telemetry(self, now_us, rx):
+        s = self.signals
+        arming = self.arming
+        rx.send_telemetry(now_us, self.board, s, s.setpoint.mode, self.airmode_enabled, self.failsafe.state != IDLE,
+                          arming.armed, arming.flags)
 
     def task_arming(self, now_us):
         """Faults, built-in test, arming reasons, autopilot timeout, failsafe stages (100 Hz)."""
