@@ -1,0 +1,126 @@
+"""Where the pass's instructions go on MicroPython: callgrind counts of each stage of bench/core_loop.py's flight.
+
+Run: `.venv/bin/python bench/stage_instructions.py [STAGE ...]` (needs `valgrind` and the MicroPython VM,
+`.venv/bin/micropython` or `micropython` on PATH; about a minute and a half for the default stages on two cores).
+
+A stage is a method of the flight or of an object it holds, named by its path from the Flight
+(`fixed.update`, `rc.new_frame`, `board.imu.read`; `step` is the whole pass), or a scheduler task
+(`task.rx`). Each stage is counted in a run of its own: bench/core_loop.py's armed flight (armed_flight())
+flies PASSES passes with garbage collected as the rp2 main loop collects it, the stage's method replaced on
+its instance by a wrapper that makes the real call from inside the builtin `map`'s iterator, and callgrind
+collects only while inside that iterator (`--toggle-collect=map_iternext`). So a count is the stage's own
+call with everything under it (the call, its frames, its allocations, what it calls), less nothing else in
+the pass, and no behaviour changes: the stage runs as it always does. The iterator's own step and the
+call from C (about 1.6k instructions; `step` less the sum of its stages shows the glue) are in every figure.
+Collections and looks at the free heap (gc_collect, gc_info) are taken out, as in
+bench/core_instructions.py. Figures are per pass: a stage that runs every fourth pass (a new receiver frame)
+shows a quarter of its cost a call.
+
+Prints one JSON object: {passes, stages: {name: ir_per_pass}}.
+"""
+
+import sys
+
+PASSES = 600
+# The pass (Flight.step's stages) and the slow tasks and their large parts, as of 2026-12.
+DEFAULT = ("step", "scheduler.pass_started", "_sense", "board.read_imu", "board.imu.read", "fixed_imu.update",
+           "fixed_att.step", "rc.update", "command", "_control", "fixed.update", "_outputs", "output.update_fixed",
+           "board.write_motors", "scheduler.run", "task.rx", "receiver.update", "_rx_frame", "rc.new_frame",
+           "_pilot_frame", "task.arming", "faults.check_imu", "failsafe.observe")
+
+
+def _wrap(obj, name):
+    real = getattr(obj, name)
+
+    def stage(*args):
+        if args:
+            for r in map(real, *[[a] for a in args]):
+                return r
+        for r in map(lambda _: real(), [0]):
+            return r
+
+    setattr(obj, name, stage)
+
+
+def _child(name, passes):
+    from core_loop import GC_FREE_FRACTION, armed_flight
+    from hoverfly.compat import collect_garbage, mem_free
+    from hoverfly.core.scheduler import HeapWatch
+
+    board, f, t = armed_flight()
+    parts = name.split(".")
+    if parts[0] == "task":
+        for task in f.scheduler.tasks:
+            if task.name == parts[1]:
+                _wrap(task, "fn")
+    else:
+        obj = f
+        for p in parts[:-1]:
+            obj = getattr(obj, p)
+        _wrap(obj, parts[-1])
+    watch = HeapWatch(mem_free, GC_FREE_FRACTION)
+    collect_garbage()
+    watch.collected()
+    for _ in range(passes):
+        if watch.due() and watch.need():
+            collect_garbage()
+            watch.collected()
+        t += 1000
+        board.t = t
+        f.step(t)
+
+
+def _count(cmd, env):
+    """Instructions `cmd` executes inside map's iterator, less collections and looks at the free heap."""
+    import os
+    import re
+    import subprocess
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        out_file = os.path.join(tmp, "callgrind.out")
+        subprocess.run(["valgrind", "--tool=callgrind", "--toggle-collect=map_iternext",
+                        "--callgrind-out-file=" + out_file] + cmd, capture_output=True, text=True, env=env, check=True)
+        report = subprocess.run(["callgrind_annotate", "--inclusive=yes", out_file],
+                                capture_output=True, text=True, check=True).stdout
+    m = re.search(r"([\d,]+)\s+\(100\.0%\)\s+PROGRAM TOTALS", report)
+    total = int(m.group(1).replace(",", "")) if m else 0
+    for fn in ("gc_collect", "gc_info"):
+        m = re.search(r"^\s*([\d,]+)\s.*:%s \[" % fn, report, re.M)
+        if m:
+            total -= int(m.group(1).replace(",", ""))
+    return total
+
+
+def main():
+    import json
+    import os
+    import shutil
+    from concurrent.futures import ThreadPoolExecutor
+
+    if shutil.which("valgrind") is None:
+        print(json.dumps({"error": "valgrind is not on PATH"}))
+        return 1
+    mp = os.path.join(os.path.dirname(sys.executable), "micropython")
+    if not os.path.exists(mp):
+        mp = shutil.which("micropython")
+    if mp is None:
+        print(json.dumps({"error": "no micropython VM"}))
+        return 1
+    here = os.path.dirname(os.path.abspath(__file__))
+    env = dict(os.environ, MICROPYPATH="%s:%s" % (os.path.join(os.path.dirname(here), "src"), here))
+    me = os.path.abspath(__file__)
+    names = sys.argv[1:] or list(DEFAULT)
+    with ThreadPoolExecutor(os.cpu_count() or 2) as ex:
+        runs = [(n, ex.submit(_count, [mp, "-X", "heapsize=512k", me, "--child", n, str(PASSES)], env))
+                for n in names]
+        stages = {n: round(r.result() / PASSES) for n, r in runs}
+    print(json.dumps({"passes": PASSES, "stages": stages}))
+    return 0
+
+
+if __name__ == "__main__":
+    if len(sys.argv) == 4 and sys.argv[1] == "--child":
+        _child(sys.argv[2], int(sys.argv[3]))
+    else:
+        sys.exit(main())
