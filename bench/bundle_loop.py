@@ -21,7 +21,7 @@ against the bytecode bundle and what it adds to an RP2040's bundle: the table NA
 
 `--profile`: where each bundle's pass goes, by VM function: {bytecode: {ir_per_pass, functions: [[name,
 instructions a pass, % of the pass], ...]}, native: {...}}, the 15 largest (callgrind_annotate, each function's
-own instructions, the pass run less the idle run).
+own instructions, a run of 3 * PASSES passes less one of PASSES, as bench/core_instructions.py counts).
 """
 
 import json
@@ -83,8 +83,8 @@ def _by_function(cmd, env):
 
 def _profile(mp, lib, top):
     """The pass's instructions by VM function (machine code that callgrind cannot name shows as its address)."""
-    runs = [_by_function(_child(mp) + ["--child", mode, str(PASSES)], _env(lib)) for mode in ("pass", "idle")]
-    per = {k: (runs[0].get(k, 0) - runs[1].get(k, 0)) / PASSES for k in set(runs[0]) | set(runs[1])}
+    runs = [_by_function(_child(mp) + ["--child", str(n)], _env(lib)) for n in (3 * PASSES, PASSES)]
+    per = {k: (runs[0].get(k, 0) - runs[1].get(k, 0)) / (2 * PASSES) for k in set(runs[0]) | set(runs[1])}
     total = sum(per.values())
     rows = sorted(per.items(), key=lambda kv: -kv[1])[:top]
     return {"ir_per_pass": round(total), "functions": [[k, round(v), round(100.0 * v / total, 1)] for k, v in rows]}
@@ -112,9 +112,8 @@ def _calls(cmd, env, fn):
 
 
 def _frames(mp, lib):
-    counts = [_calls(_child(mp) + ["--child", mode, str(PASSES)], _env(lib), "m_malloc_maybe")
-              for mode in ("pass", "idle")]
-    return round((counts[0] - counts[1]) / PASSES, 1)
+    counts = [_calls(_child(mp) + ["--child", str(n)], _env(lib), "m_malloc_maybe") for n in (3 * PASSES, PASSES)]
+    return round((counts[0] - counts[1]) / (2 * PASSES), 1)
 
 
 def compare(mp, root):

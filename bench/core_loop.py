@@ -1,12 +1,16 @@
 """Cost of one full flight-core pass (IMU -> filters -> Mahony -> commander -> PID -> mixer -> outputs).
 
 Runs under CPython and MicroPython; prints one JSON object:
-{runtime, us_per_pass, bytes_per_pass, passes, passes_per_gc, us_per_pass_after_gc}. Armed, angle mode: an
+{runtime, us_per_pass, bytes_per_pass, passes, passes_per_gc, us_per_pass_after_gc, tasks_us_per_pass,
+loop_us_per_pass}. Armed, angle mode: an
 MPU-6050 burst decoded by the MPU-6050 driver, filters, estimator, commander, PIDs, mixer, DShot words
 (core.output.OutputEncoder), a CRSF frame parsed every 4th pass, the scheduler's slow tasks included.
 bytes_per_pass from gc.mem_alloc() deltas with the GC disabled (0 on CPython). Garbage is collected between
 passes, untimed, as the rp2 main loop collects it (timed_passes below); us_per_pass_after_gc is the passes
-right after a collection, which run with the host's caches emptied by it.
+right after a collection, which run with the host's caches emptied by it. tasks_us_per_pass is the part of a
+pass spent in the scheduler's slow tasks (the receiver task at 500 Hz with the frame every 4th pass, arming and
+failsafe at 100 Hz, battery, LED), timed on a flight of its own; loop_us_per_pass is the rest: IMU to DShot
+words, commander included (Betaflight's gyro/PID loop, its tasks apart).
 
     python3 bench/core_loop.py
     MICROPYPATH=src:.frozen micropython -X heapsize=512k bench/core_loop.py
@@ -199,16 +203,41 @@ def run(passes):
     return us / passes, nbytes / passes, passes / gcs if gcs else 0.0, cold
 
 
+def tasks_us(passes):
+    """µs a pass spent in the scheduler's slow tasks (Scheduler.run: receiver, arming and failsafe, battery,
+    LED), timed around each run() call on a flight of its own (the timing wrapper is not in us_per_pass)."""
+    board, f, t = armed_flight()
+    sched = f.scheduler
+    real_run = sched.run
+    spent = [0]
+
+    def timed_run(now_us):
+        t0 = ticks_us()
+        real_run(now_us)
+        spent[0] += ticks_diff(ticks_us(), t0)
+
+    sched.run = timed_run
+    timed_passes(board, f, t, passes)
+    return spent[0] / passes
+
+
 def main():
     passes = 2000 if IS_MICROPYTHON else 20000
     best = None
+    tasks = None
     for _ in range(3):
         r = run(passes)
         if best is None or r[0] < best[0]:
             best = r
+        u = tasks_us(passes)
+        if tasks is None or u < tasks:
+            tasks = u
     runtime = "micropython" if IS_MICROPYTHON else "cpython"
+    # loop_us_per_pass: the pass less its slow tasks, what Betaflight calls the gyro/PID loop (its `tasks`
+    # command lists the receiver and the other tasks apart); the board runs both in the same period.
     print('{"runtime": "%s", "us_per_pass": %.2f, "bytes_per_pass": %.1f, "passes": %d, "passes_per_gc": %.1f, '
-          '"us_per_pass_after_gc": %.2f}' % (runtime, best[0], best[1], passes, best[2], best[3]))
+          '"us_per_pass_after_gc": %.2f, "tasks_us_per_pass": %.2f, "loop_us_per_pass": %.2f}'
+          % (runtime, best[0], best[1], passes, best[2], best[3], tasks, best[0] - tasks))
 
 
 if __name__ == "__main__":

@@ -102,7 +102,6 @@ class Flight:
         self.arming.gate = self.autopilot  # in autopilot mode the pilot's switch does not arm
         self.bit = BuiltInTest()
         self.config_session = 0  # 1 CLI, 2 MSP configurator, 4 maintenance: any set blocks arming
-        self._rc_frames_seen = 0
         self._arming_us = 0
         self._crash_latched = False
         self._vbat_min_cell_v = 3.3
@@ -373,8 +372,6 @@ class Flight:
         """Who flies: the pilot, the autopilot (seed 004) or the failsafe; and whether I-term and
         air mode may act. sp arrives holding the pilot's smoothed sticks."""
         rc = self.rc
-        if rc.frames != self._rc_frames_seen:
-            self._pilot_frame()
         if self.failsafe.state != IDLE:
             # SAFETY: the failsafe outranks the pilot's stale sticks and the autopilot.
             mode = self._failsafe_setpoint(sp)
@@ -417,9 +414,9 @@ class Flight:
             c.yaw.i = 0.0
 
     def _pilot_frame(self):
-        """A new frame from the pilot: the autopilot's enabling procedure, the AIRMODE switch."""
+        """A new frame from the pilot, after arming has seen it: the autopilot's enabling procedure, the
+        AIRMODE switch (here in the receiver task, not in every pass's command())."""
         rc = self.rc
-        self._rc_frames_seen = rc.frames
         self.autopilot.on_pilot_frame(self._last_us, rc.arm_switch, self.arming.armed)
         self._airmode_from_switch()
 
@@ -488,6 +485,7 @@ class Flight:
             self.arming.flags |= 1 << BOXFAILSAFE
         if self.failsafe.state == IDLE:
             self.arming.on_switch(now_us, self.rc.arm_switch)
+        self._pilot_frame()
         log_rc = self.log_rc  # the every-pass logger's input_rc for this frame, else None (Logger sets it)
         if log_rc is not None:
             log_rc()
