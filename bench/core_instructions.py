@@ -22,12 +22,12 @@ import sys
 PASSES = 300
 
 
-def _child(passes):
-    from core_loop import GC_FREE_FRACTION, armed_flight
+def fly(board, f, t, passes):
+    """Step bench/core_loop.py's armed flight `passes` times, collecting garbage as the rp2 main loop does."""
+    from core_loop import GC_FREE_FRACTION
     from hoverfly.compat import collect_garbage, mem_free
     from hoverfly.core.scheduler import HeapWatch
 
-    board, f, t = armed_flight()
     watch = HeapWatch(mem_free, GC_FREE_FRACTION)
     collect_garbage()
     watch.collected()
@@ -38,6 +38,13 @@ def _child(passes):
         t += 1000
         board.t = t
         f.step(t)
+
+
+def _child(passes):
+    from core_loop import armed_flight
+
+    board, f, t = armed_flight()
+    fly(board, f, t, passes)
 
 
 def _count(cmd, env):

@@ -43,9 +43,8 @@ def _wrap(obj, name):
 
 
 def _child(name, passes):
-    from core_loop import GC_FREE_FRACTION, armed_flight
-    from hoverfly.compat import collect_garbage, mem_free
-    from hoverfly.core.scheduler import HeapWatch
+    from core_instructions import fly
+    from core_loop import armed_flight
 
     board, f, t = armed_flight()
     parts = name.split(".")
@@ -58,16 +57,7 @@ def _child(name, passes):
         for p in parts[:-1]:
             obj = getattr(obj, p)
         _wrap(obj, parts[-1])
-    watch = HeapWatch(mem_free, GC_FREE_FRACTION)
-    collect_garbage()
-    watch.collected()
-    for _ in range(passes):
-        if watch.due() and watch.need():
-            collect_garbage()
-            watch.collected()
-        t += 1000
-        board.t = t
-        f.step(t)
+    fly(board, f, t, passes)
 
 
 def _count(cmd, env):
