@@ -218,6 +218,7 @@ class Flight:
         self.receiver.start(now_us)
         self.arming.boot_us = now_us
         self.calibration.reset()
+        self._route()  # the calibration runs again: the pass feeds it
         self.scheduler.start(now_us, self.loop_hz)
         self.logger.start(now_us)
 
