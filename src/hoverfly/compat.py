@@ -123,3 +123,16 @@ def ticks_elapsed_us(now_us, since_us):
     """Microseconds from `since_us` to `now_us` (ticks), never negative."""
     d = ticks_diff(now_us, since_us)
     return d if d > 0 else 0
+
+
+def accel_module(name):
+    """hoverfly.accel.<name>, a stage's viper twins, on MicroPython; None elsewhere, and where it does not
+    load: a port without the viper emitter (compiling it raises SyntaxError, NameError or ValueError) or a
+    bundle built without it (ImportError). The portable stage then runs its Python twin."""
+    if not IS_MICROPYTHON:
+        return None
+    try:
+        package = __import__("hoverfly.accel." + name)
+    except (SyntaxError, ImportError, NameError, ValueError):
+        return None
+    return getattr(package.accel, name)

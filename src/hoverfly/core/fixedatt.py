@@ -36,7 +36,7 @@ or NaN) restarts at level.
 import math
 from array import array
 
-from hoverfly.compat import IS_MICROPYTHON, const
+from hoverfly.compat import accel_module, const
 
 # co: the gains (a 15-bit mantissa m and a shift s, value = m / 2**s), the averaging, then tables
 CO_KP_M = const(0)
@@ -111,17 +111,8 @@ _PAIRS = (
     (_X, _X), (_Y, _Y), (_Z, _Z), (_W, _X), (_Y, _Z), (_W, _Y), (_Z, _X), (_W, _Z), (_X, _Y),
 )
 
-_step = None
-if IS_MICROPYTHON:
-    try:
-        from hoverfly.accel.att import LOG2 as _LOG2
-        from hoverfly.accel.att import TAB_SIZE as _TAB_SIZE
-        from hoverfly.accel.att import bind as _bind
-        from hoverfly.accel.att import step as _step
-    except (SyntaxError, ImportError, NameError, ValueError):
-        _step = None
-
-HAS_ACCEL = _step is not None
+_viper = accel_module("att")
+HAS_ACCEL = _viper is not None
 
 
 def coef(value, cap=40):
@@ -391,7 +382,7 @@ class FixedAttitude:
         self.angle_floats = True
         self._io = None
         # the viper twin's table of the arrays' addresses (accel/att.py), written by configure
-        self._tab = array("i", [0] * _TAB_SIZE) if HAS_ACCEL else None
+        self._tab = array("i", [0] * _viper.TAB_SIZE) if HAS_ACCEL else None
         self._mahony = None
         self._attitude = None
 
@@ -415,11 +406,11 @@ class FixedAttitude:
         self._io = (signals.gyro_rad_s, signals.accel_m_s2, attitude.q, attitude.angles, mahony.bias_rad_s)
         if HAS_ACCEL:
             tab = self._tab
-            _bind(tab, 0, co)
-            _bind(tab, 1, st)
+            _viper.bind(tab, 0, co)
+            _viper.bind(tab, 1, st)
             for k in range(5):
-                _bind(tab, 2 + k, self._io[k])
-            _bind(tab, 7, _LOG2)
+                _viper.bind(tab, 2 + k, self._io[k])
+            _viper.bind(tab, 7, _viper.LOG2)
         self.active = True
         return True
 
@@ -441,4 +432,4 @@ class FixedAttitude:
 
 step_python = FixedAttitude.step
 if HAS_ACCEL:
-    FixedAttitude.step = _step
+    FixedAttitude.step = _viper.step

@@ -23,7 +23,7 @@ over k of its input: 1e-5 rad/s for the gyro's default 250 Hz, 2e-4 m/s^2 for th
 
 from array import array
 
-from hoverfly.compat import IS_MICROPYTHON, const
+from hoverfly.compat import accel_module, const
 
 # co: the gyro PT1's gain per axis, then the accelerometer PT2's stage gain per axis (Q15)
 CO_GYRO_K = const(0)
@@ -41,17 +41,8 @@ _GYRO_LIM = const(0x800000)  # 2**23: 128 rad/s in Q16
 _ACC_LIM = const(0x1000000)  # 2**24: 256 m/s^2 in Q16
 _INV16 = 1.0 / 65536.0
 
-_update = None
-if IS_MICROPYTHON:
-    try:
-        from hoverfly.accel.imufilter import LOG2 as _LOG2
-        from hoverfly.accel.imufilter import TAB_SIZE as _TAB_SIZE
-        from hoverfly.accel.imufilter import bind as _bind
-        from hoverfly.accel.imufilter import update as _update
-    except (SyntaxError, ImportError, NameError, ValueError):
-        _update = None
-
-HAS_ACCEL = _update is not None
+_viper = accel_module("imufilter")
+HAS_ACCEL = _viper is not None
 
 
 def _dec(x, lim):
@@ -109,7 +100,7 @@ class FixedImuFilter:
         self.active = False
         self._io = None
         # the viper twin's table of the arrays' addresses (accel/imufilter.py), written by configure
-        self._tab = array("i", [0] * _TAB_SIZE) if HAS_ACCEL else None
+        self._tab = array("i", [0] * _viper.TAB_SIZE) if HAS_ACCEL else None
         self._gyro = None
         self._accel = None
 
@@ -133,11 +124,11 @@ class FixedImuFilter:
             st[S_ACC2 + i] = _dec(f.y, _ACC_LIM)
         if HAS_ACCEL:
             tab = self._tab
-            _bind(tab, 0, co)
-            _bind(tab, 1, st)
+            _viper.bind(tab, 0, co)
+            _viper.bind(tab, 1, st)
             for k in range(5):
-                _bind(tab, 2 + k, self._io[k])
-            _bind(tab, 7, _LOG2)
+                _viper.bind(tab, 2 + k, self._io[k])
+            _viper.bind(tab, 7, _viper.LOG2)
         self.active = True
         return True
 
@@ -160,4 +151,4 @@ class FixedImuFilter:
 
 update_python = FixedImuFilter.update
 if HAS_ACCEL:
-    FixedImuFilter.update = _update
+    FixedImuFilter.update = _viper.update

@@ -29,7 +29,7 @@ Inputs that are not numbers (NaN) read as 0, infinities as the clamp.
 
 from array import array
 
-from hoverfly.compat import IS_MICROPYTHON, const
+from hoverfly.compat import accel_module, const
 from hoverfly.core.control import MODE_ACRO, MODE_ANGLE
 from hoverfly.core.pid import RELAX_THRESHOLD_RAD_S
 
@@ -116,17 +116,8 @@ _INV24 = 1.0 / 16777216.0
 _INV26 = 1.0 / 67108864.0
 _INV15 = 1.0 / 32768.0
 
-_update = None
-if IS_MICROPYTHON:
-    try:
-        from hoverfly.accel.rate import LOG2 as _LOG2
-        from hoverfly.accel.rate import TAB_SIZE as _TAB_SIZE
-        from hoverfly.accel.rate import bind as _bind
-        from hoverfly.accel.rate import update as _update
-    except (SyntaxError, ImportError, NameError, ValueError):
-        _update = None
-
-HAS_ACCEL = _update is not None
+_viper = accel_module("rate")
+HAS_ACCEL = _viper is not None
 
 
 def coef(value, cap=40):
@@ -389,7 +380,7 @@ class FixedRate:
         self.active = False
         self._io = None
         # the viper twin's table of the arrays' addresses (accel/rate.py), written by configure
-        self._tab = array("i", [0] * _TAB_SIZE) if HAS_ACCEL else None
+        self._tab = array("i", [0] * _viper.TAB_SIZE) if HAS_ACCEL else None
         self._controller = None
         self._mixer = None
 
@@ -448,11 +439,11 @@ class FixedRate:
                 co[w] = co[w + 1] = co[w + 2] = 0
         if HAS_ACCEL:
             tab = self._tab
-            _bind(tab, 0, co)
-            _bind(tab, 1, self.st)
+            _viper.bind(tab, 0, co)
+            _viper.bind(tab, 1, self.st)
             for k in range(7):
-                _bind(tab, 2 + k, self._io[k])
-            _bind(tab, 9, _LOG2)
+                _viper.bind(tab, 2 + k, self._io[k])
+            _viper.bind(tab, 9, _viper.LOG2)
         if not self.active:
             self._take_state()
         self.active = True
@@ -535,5 +526,5 @@ class FixedRate:
 
 update_python = FixedRate.update
 if HAS_ACCEL:
-    FixedRate.update = _update
+    FixedRate.update = _viper.update
 

@@ -27,7 +27,7 @@ the float stage's (a DShot step is 5e-4); its viper twin (accel/output.py) makes
 
 from array import array
 
-from hoverfly.compat import IS_MICROPYTHON, const, ticks_diff
+from hoverfly.compat import accel_module, const, ticks_diff
 from hoverfly.core.mixer import MAX_MOTORS
 from hoverfly.core.params import row
 from hoverfly.protocols import analog
@@ -56,14 +56,8 @@ _INV16 = 1.0 / 65536.0
 # (no viper) the Python twin, which takes any sequence.
 _encode_seen = encode_planned_f32 if encode_planned_f32 is not None else encode_planned
 
-_update_fixed = None
-if IS_MICROPYTHON:
-    try:
-        from hoverfly.accel.output import update_fixed as _update_fixed
-    except (SyntaxError, ImportError, NameError, ValueError):
-        _update_fixed = None
-
-HAS_ACCEL = _update_fixed is not None
+_viper = accel_module("output")
+HAS_ACCEL = _viper is not None
 _CLAMPED_MAX = const(0x3FFFFFFF)  # update_fixed's count saturates here: a 32-bit word in the viper twin
 
 
@@ -245,7 +239,7 @@ class OutputStage:
 
 
 if HAS_ACCEL:
-    OutputStage.update_fixed = _update_fixed
+    OutputStage.update_fixed = _viper.update_fixed
 
 
 class OutputEncoder:

@@ -23,7 +23,7 @@ tests/portable/test_rc_fixed.py holds it to the float stage within a stated boun
 import math
 from array import array
 
-from hoverfly.compat import IS_MICROPYTHON, const
+from hoverfly.compat import accel_module, const
 from hoverfly.core.control import MODE_ACRO, MODE_ANGLE, MODE_HORIZON
 from hoverfly.core.filters import AlphaBeta, Pt1, Pt2
 from hoverfly.core.rates import ActualRates
@@ -48,14 +48,8 @@ S_S1 = const(4)
 S_Y = const(8)
 ST_SIZE = const(12)
 
-_rc_pass = None
-if IS_MICROPYTHON:
-    try:
-        from hoverfly.accel.rc import rc_pass as _rc_pass
-    except (SyntaxError, ImportError, NameError, ValueError):
-        _rc_pass = None
-
-HAS_ACCEL = _rc_pass is not None
+_viper = accel_module("rc")
+HAS_ACCEL = _viper is not None
 
 
 def _step(k, x, y):
@@ -120,8 +114,7 @@ def rc_pass(co, st, stick, rate):
     return changed
 
 
-if _rc_pass is None:
-    _rc_pass = rc_pass
+_rc_pass = _viper.rc_pass if HAS_ACCEL else rc_pass
 
 
 def _q(x, scale, lo, hi):

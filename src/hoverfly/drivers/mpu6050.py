@@ -13,7 +13,7 @@ product specification PS-MPU-6000A-00 rev 3.4 §6.1/6.2.
 from array import array
 from struct import pack, unpack
 
-from hoverfly.compat import IS_MICROPYTHON, const
+from hoverfly.compat import accel_module, const
 from hoverfly.drivers.imu import (
     DEG_TO_RAD,
     GRAVITY_M_S2,
@@ -127,14 +127,9 @@ def float32(x):
 
 # On MicroPython the viper twin of MPU6050.read (accel/mpu6050.py: read_burst's work, inline) and
 # its address table's writer; else None and the Python read below. Tested equal.
-_read = None
-_bind = None
-if IS_MICROPYTHON:
-    try:
-        from hoverfly.accel.mpu6050 import bind as _bind
-        from hoverfly.accel.mpu6050 import read as _read
-    except (SyntaxError, ImportError, NameError, ValueError):
-        _read = _bind = None
+_viper = accel_module("mpu6050")
+_read = _viper.read if _viper is not None else None
+_bind = _viper.bind if _viper is not None else None
 
 ADDRESS = 0x68  # AD0 low (RM §4.32 WHO_AM_I note; seed 000)
 ADDRESS_ALT = 0x69  # AD0 high

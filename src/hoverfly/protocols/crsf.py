@@ -24,7 +24,7 @@ The encoder is its exact inverse: it picks the tick that decodes back to the sam
 
 from array import array
 
-from hoverfly.compat import IS_MICROPYTHON, const, ticks_diff
+from hoverfly.compat import accel_module, const, ticks_diff
 from hoverfly.protocols.crc import CRC8_DVB_S2_TABLE, crc8_dvb_s2
 from hoverfly.protocols.rxcodec import (
     SerialRxDecoder,
@@ -69,18 +69,10 @@ _CRC = CRC8_DVB_S2_TABLE
 
 # The per-frame byte loops: viper twins on MicroPython (accel/crsf.py, ~10x faster on
 # the RC frame), the pure-Python twins everywhere else or if viper is missing; tested equal.
-_check_unpack11 = check_unpack11
-_unpack11 = unpack11
-_crc8 = crc8_dvb_s2
-if IS_MICROPYTHON:
-    try:
-        from hoverfly.accel import crsf as _viper
-
-        _check_unpack11 = _viper.check_unpack11
-        _unpack11 = _viper.unpack11
-        _crc8 = _viper.crc8_dvb_s2
-    except (SyntaxError, ImportError, NameError, ValueError):
-        pass
+_viper = accel_module("crsf")
+_check_unpack11 = _viper.check_unpack11 if _viper is not None else check_unpack11
+_unpack11 = _viper.unpack11 if _viper is not None else unpack11
+_crc8 = _viper.crc8_dvb_s2 if _viper is not None else crc8_dvb_s2
 
 
 def _sync_table():

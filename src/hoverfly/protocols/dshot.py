@@ -28,16 +28,12 @@ disarmed (and, with `stop_at_zero`, a motor command of exactly 0 or below) is 0 
 
 from array import array
 
-from hoverfly.compat import IS_MICROPYTHON, const, ticks_add, ticks_diff
+from hoverfly.compat import accel_module, const, ticks_add, ticks_diff
 
 # The board codec's whole encode (OutputEncoder.write): `encode_planned` below, or its viper twin
 # on the float32 bits of an array('f'), which makes no float at all.
-encode_planned_f32 = None
-if IS_MICROPYTHON:
-    try:
-        from hoverfly.accel.dshot import encode_planned as encode_planned_f32
-    except (SyntaxError, ImportError, NameError, ValueError):
-        encode_planned_f32 = None
+_viper = accel_module("dshot")
+encode_planned_f32 = _viper.encode_planned if _viper is not None else None
 
 VALUE_MAX = const(2047)
 THROTTLE_MIN = const(48)  # 1..47 are commands; 48..2047 is the 2000-step throttle range
