@@ -47,6 +47,28 @@ def _child(passes):
     fly(board, f, t, passes)
 
 
+def micropython_vm():
+    """The MicroPython VM the benches run (hoverfly.sim.bridge.find_micropython: on PATH, else next to this
+    Python), or None when there is none."""
+    from hoverfly.errors import UserError
+    from hoverfly.sim.bridge import find_micropython
+
+    try:
+        return find_micropython()
+    except UserError:
+        return None
+
+
+def callgrind_total(cmd, env):
+    """All the instructions `cmd` executes under callgrind (collections included)."""
+    import re
+    import subprocess
+
+    out = subprocess.run(["valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null"] + cmd,
+                         capture_output=True, text=True, env=env, check=True).stderr
+    return int(re.search(r"I\s+refs:\s+([\d,]+)", out).group(1).replace(",", ""))
+
+
 def _count(cmd, env):
     """Instructions `cmd` executes under callgrind, less its garbage collections and its looks at the free heap
     (gc_collect and gc_info, inclusive)."""
@@ -92,9 +114,7 @@ def main():
     root = os.path.dirname(here)
     me = os.path.abspath(__file__)
     result = {"passes": PASSES}
-    mp = os.path.join(os.path.dirname(sys.executable), "micropython")
-    if not os.path.exists(mp):
-        mp = shutil.which("micropython")
+    mp = micropython_vm()
     runtimes = [("cpython", [sys.executable, me], dict(os.environ, PYTHONHASHSEED="0"))]
     if mp is None:
         result["micropython"] = {"error": "no micropython VM"}

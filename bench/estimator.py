@@ -147,10 +147,10 @@ def count():
     import json
     import os
 
-    from core_instructions import _count
+    from core_instructions import _count, micropython_vm
 
     here = os.path.dirname(os.path.abspath(__file__))
-    mp = os.path.join(os.path.dirname(sys.executable), "micropython")
+    mp = micropython_vm()
     env = dict(os.environ, MICROPYPATH="%s:%s" % (os.path.join(os.path.dirname(here), "src"), here))
     cmd = [mp, "-X", "heapsize=8m", os.path.abspath(__file__), "--child"]
     calls = 400

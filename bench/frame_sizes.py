@@ -32,8 +32,9 @@ PASSES = 300
 
 
 def _micropython():
-    mp = os.path.join(os.path.dirname(sys.executable), "micropython")
-    return mp if os.path.exists(mp) else "micropython"
+    from core_instructions import micropython_vm
+
+    return micropython_vm() or "micropython"
 
 
 def frames(path):

@@ -47,25 +47,17 @@ def _child(mode, calls):
             test.update(t, armed, arm_switch, rx_ok, out)
 
 
-def _count(cmd, env):
-    import re
-    import subprocess
-
-    out = subprocess.run(["valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null"] + cmd,
-                         capture_output=True, text=True, env=env, check=True).stderr
-    return int(re.search(r"I\s+refs:\s+([\d,]+)", out).group(1).replace(",", ""))
-
-
 def main():
     import json
     import os
     import shutil
 
+    from core_instructions import callgrind_total as _count
+    from core_instructions import micropython_vm
+
     here = os.path.dirname(os.path.abspath(__file__))
     root = os.path.dirname(here)
-    mp = os.path.join(os.path.dirname(sys.executable), "micropython")
-    if not os.path.exists(mp):
-        mp = shutil.which("micropython")
+    mp = micropython_vm()
     if shutil.which("valgrind") is None or mp is None:
         print(json.dumps({"error": "needs valgrind and the micropython VM"}))
         return 1

@@ -1,7 +1,7 @@
 """The receiver-to-setpoint path counted by callgrind instead of timed, on the MicroPython VM (and CPython).
 
 Run: `.venv/bin/python bench/rc_instructions.py` (needs `valgrind` and `.venv/bin/micropython`; about
-a minute). bench/rc_input.py times the same calls, but the shared host moves its µs by tens of percent
+two minutes). bench/rc_input.py times the same calls, but the shared host moves its µs by tens of percent
 from run to run; instruction counts do not move, so this is the figure to compare two versions by.
 
 bench/core_loop.py's armed flight (armed_flight(): a CRSF frame on every second receiver poll, the
@@ -13,11 +13,11 @@ roll stick at 1500/1507 µs in turn, so one axis always moves) and then, CALLS t
 - `rc_update_float`: the same with pid_math = float (the float stage);
 - `new_frame`: RcInput.new_frame on the two frames in turn (the roll stick moves on each);
 
-less the same run doing everything but the counted call (the frames still go to new_frame for
-rc_update), divided by CALLS. The collector is off, but both runs collect every 16th call, as the rp2
-main loop collects every dozen passes or so: with no collection the allocator's search for a free
-block grows with the garbage made since the last one, and one run's garbage would change what the
-other's allocations cost. Prints one JSON object:
+less the same run doing everything but the counted call (the frames still go to new_frame for rc_update),
+both over 2 * CALLS calls less over CALLS, divided by CALLS. The collector is off, but both runs collect
+every 16th call, as the rp2 main loop collects every dozen passes or so: with no collection the allocator's
+search for a free block grows with the garbage made since the last one, and one run's garbage would change
+what the other's allocations cost. Prints one JSON object:
 {calls, micropython: {name: ir_per_call}, cpython: {...}}.
 """
 
@@ -97,26 +97,24 @@ def _child(name, mode, calls):
             rc.update(sp)
 
 
-def _count(cmd, env):
-    import re
-    import subprocess
-
-    out = subprocess.run(["valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null"] + cmd,
-                         capture_output=True, text=True, env=env, check=True).stderr
-    return int(re.search(r"I\s+refs:\s+([\d,]+)", out).group(1).replace(",", ""))
-
-
 def ir_per_call(cmd, env, name, calls=CALLS):
-    counts = {}
+    """(The counted run less the idle one) over 2 * calls, less the same over calls: what the runs do
+    once, set-up included, cancels even where two set-ups that should be alike are not."""
+    from core_instructions import callgrind_total
+
+    per = {}
     for mode in ("pass", "idle"):
-        counts[mode] = _count(cmd + ["--child", name, mode, str(calls)], env)
-    return round((counts["pass"] - counts["idle"]) / calls)
+        c = [callgrind_total(cmd + ["--child", name, mode, str(n)], env) for n in (2 * calls, calls)]
+        per[mode] = c[0] - c[1]
+    return round((per["pass"] - per["idle"]) / calls)
 
 
 def main():
     import json
     import os
     import shutil
+
+    from core_instructions import micropython_vm
 
     if shutil.which("valgrind") is None:
         print(json.dumps({"error": "valgrind is not on PATH"}))
@@ -125,9 +123,7 @@ def main():
     root = os.path.dirname(here)
     me = os.path.abspath(__file__)
     result = {"calls": CALLS}
-    mp = os.path.join(os.path.dirname(sys.executable), "micropython")
-    if not os.path.exists(mp):
-        mp = shutil.which("micropython")
+    mp = micropython_vm()
     runtimes = []
     if mp is not None:
         env = dict(os.environ, MICROPYPATH="%s:%s" % (os.path.join(root, "src"), here))

@@ -88,12 +88,12 @@ def main():
     import shutil
     from concurrent.futures import ThreadPoolExecutor
 
+    from core_instructions import micropython_vm
+
     if shutil.which("valgrind") is None:
         print(json.dumps({"error": "valgrind is not on PATH"}))
         return 1
-    mp = os.path.join(os.path.dirname(sys.executable), "micropython")
-    if not os.path.exists(mp):
-        mp = shutil.which("micropython")
+    mp = micropython_vm()
     if mp is None:
         print(json.dumps({"error": "no micropython VM"}))
         return 1
