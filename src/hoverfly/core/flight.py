@@ -230,7 +230,8 @@ class Flight:
         dt_us = ticks_diff(now_us, self._last_us)
         self.pass_dt_us = dt_us
         self._last_us = now_us
-        self.scheduler.pass_started(now_us)
+        sched = self.scheduler
+        sched.pass_started(now_us)
         self._sense(now_us, dt_us)  # 1. IMU and filters, 2. estimator
         # 3. commander: the pilot's sticks, or the failsafe's
         sp = self.signals.setpoint
@@ -238,8 +239,8 @@ class Flight:
         self.command(sp)
         self._control(dt_us, sp)  # 4. controller and 5. mixer
         self._outputs(now_us)  # 6. outputs
-        if ticks_diff(now_us, self.scheduler.next_due_us) >= 0:  # most passes run no task: not even the call
-            self.scheduler.run(now_us)
+        if ticks_diff(now_us, sched.next_due_us) >= 0:  # most passes run no task: not even the call
+            sched.run(now_us)
         log_pass = self.log_pass  # the logger's update while a log is open, else None (Logger sets it)
         if log_pass is not None:
             log_pass(now_us)
