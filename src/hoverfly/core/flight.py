@@ -227,23 +227,26 @@ class Flight:
         # The pass in stages of their own, each method's frame (locals and value stack) within 11
         # machine words: a bigger one is taken from the heap and freed at every call on MicroPython
         # (bench/frame_sizes.py), and with the pass's float results that costs more than the calls.
+        # This one is at 11: four locals, and the fixed controller's call (seven words of stack).
         dt_us = ticks_diff(now_us, self._last_us)
         self.pass_dt_us = dt_us
         self._last_us = now_us
-        sched = self.scheduler
-        sched.pass_started(now_us)
+        self.scheduler.pass_started(now_us)
         self._sense(now_us, dt_us)  # 1. IMU and filters, 2. estimator
         # 3. commander: the pilot's sticks, or the failsafe's
         sp = self.signals.setpoint
         self.rc.update(sp)
         self.command(sp)
-        self._control(dt_us, sp)  # 4. controller and 5. mixer
+        # 4. controller and 5. mixer: in fixed point (pid_math; MicroPython's zero-allocation pass), or float
+        if self._fixed_on:
+            self.fixed.update(sp, self.signals.attitude, dt_us, self.i_active, self.airmode_active)
+        else:
+            self._control_float(dt_us, sp)
         self._outputs(now_us)  # 6. outputs
-        if ticks_diff(now_us, sched.next_due_us) >= 0:  # most passes run no task: not even the call
-            sched.run(now_us)
-        log_pass = self.log_pass  # the logger's update while a log is open, else None (Logger sets it)
-        if log_pass is not None:
-            log_pass(now_us)
+        if ticks_diff(now_us, self.scheduler.next_due_us) >= 0:  # most passes run no task: not even the call
+            self.scheduler.run(now_us)
+        if self.log_pass is not None:  # the logger's update while a log is open (Logger sets it)
+            self.log_pass(now_us)
 
     def _sense(self, now_us, dt_us):
         """1. The IMU sample through the filters, 2. the estimator."""
@@ -313,15 +316,8 @@ class Flight:
                                    s.attitude)
                 self._att_restart()
 
-    def _control(self, dt_us, sp):
-        """4. The controller and 5. the mixer: in fixed point (pid_math; MicroPython's zero-allocation
-        pass), or float."""
-        if self._fixed_on:
-            self.fixed.update(sp, self.signals.attitude, dt_us, self.i_active, self.airmode_active)
-        else:
-            self._control_float(dt_us, sp)
-
     def _control_float(self, dt_us, sp):
+        """4. The controller and 5. the mixer in float (pid_math float, or where the fixed stage cannot run)."""
         s = self.signals
         self.controller.update(sp, s.attitude, s.gyro_rad_s, self._dt_s(dt_us), self.i_active, self.mixer.saturated,
                                s.torque_norm)
