@@ -24,7 +24,7 @@ import sys
 PASSES = 600
 # The pass (Flight.step's stages) and the slow tasks and their large parts, as of 2026-12.
 DEFAULT = ("step", "scheduler.pass_started", "_sense", "board.read_imu", "board.imu.read", "fixed_imu.update",
-           "fixed_att.step", "rc.update", "command", "_control", "fixed.update", "_outputs", "output.update_fixed",
+           "fixed_att.step", "rc.update", "command", "fixed.update", "_outputs", "output.update_fixed",
            "board.write_motors", "scheduler.run", "task.rx", "receiver.update", "_rx_frame", "rc.new_frame",
            "_pilot_frame", "task.arming", "faults.check_imu", "failsafe.observe")
 

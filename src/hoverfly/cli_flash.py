@@ -27,14 +27,14 @@ BUNDLE_DIRS = ("core", "protocols", "drivers", "accel", "boards/rp2")
 BUNDLE_FILES = ("__init__.py", "compat.py", "boards/__init__.py", "boards/bridge_fw.py")
 ARCH = {"rp2040": "armv6m", "rp2350": "armv7m", "rp2350-riscv": "rv32imc", "unix-x64": "x64"}
 CHIPS = ("rp2040", "rp2350", "rp2350-riscv")  # the boards; unix-x64 is the PC's MicroPython
-# Modules compiled to machine code. MicroPython gives a bytecode function whose state (locals and
-# value stack) passes 11 words a frame from the heap on every call, and frees it on return: the
-# pass made 16 such frames (invisible in gc.mem_alloc() deltas), and a free leaves the allocator's
-# search to start low again, so each large frame scans the heap for a long enough gap. Native code
-# keeps its frames on the C stack. Flight's own methods (the pass, the commander, the slow tasks)
-# have the largest frames: native they save a quarter of the pass (bench/bundle_loop.py). Native
-# code is about three times the size of its bytecode and, loaded from the filesystem, sits in RAM,
-# so a module is here only where its saving pays for its bytes (docs/pico.md has the table).
+# Modules compiled to machine code. Native code keeps its frames on the C stack, where MicroPython gives
+# a bytecode function whose state (locals and value stack) passes 11 words a frame from the heap on every
+# call. Flight's methods had the largest frames, and native they saved a quarter of the pass; since the
+# pass keeps every frame within 11 words (2026-12), flight.py native saves only 1.5 k instructions of 122.7 k
+# for 19 KB on an RP2040 (bench/bundle_loop.py --each), and the split's calls cost the native bundle 4.4 k
+# (docs/pico.md, "What a pass costs": whether it stays is for a timing on a board). Native code is about
+# three times the size of its bytecode and, loaded from the filesystem, sits in RAM, so a module is here
+# only where its saving pays for its bytes.
 NATIVE_MODULES = ("core/flight.py",)
 MAIN_PY = "from hoverfly.boards.rp2.main import main\nmain()\n"
 # mpy-cross writes the target architecture into a .mpy's third header byte (bits 2 and up) only when the
