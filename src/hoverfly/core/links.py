@@ -9,7 +9,6 @@ that port's session closes (CLI left, MSP arming lock and maintenance motor cont
 Sits beside the flight pass as a slow task; a pass never waits on a port.
 """
 
-from hoverfly.compat import ticks_add
 from hoverfly.core.board import SERIAL_CONFIG, SERIAL_MAINT
 from hoverfly.core.cliserver import CliServer
 from hoverfly.core.maintserver import MaintServer
@@ -97,9 +96,5 @@ class ConfigLinks:
 def attach(flight, storage=None, rate_hz=LINKS_HZ):
     """Add the links task to the flight's scheduler; returns the ConfigLinks."""
     links = ConfigLinks(flight, storage)
-    sch = flight.scheduler
-    sch.add("links", rate_hz, links.task)
-    # If the scheduler already started, due the new task now rather than at tick 0.
-    t = sch.tasks[-1]
-    t.next_us = ticks_add(sch._last_us, 0)
+    flight.scheduler.add("links", rate_hz, links.task)  # due at once if the scheduler already started
     return links

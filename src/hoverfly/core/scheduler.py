@@ -2,11 +2,18 @@
 
 Each task has a rate in Hz and is due when the tick clock passes its next time; a
 task that fell behind runs once and is rescheduled from now (no bursts of catch-up).
+The fastest task (the receiver's, 500 Hz: every other pass at 1 kHz) is checked on its own;
+the others are looked at only once the soonest of them is due, so a pass that runs just the
+receiver does not walk the whole table (on MicroPython each look is a few thousand instructions).
+Tasks run in the order they were added, the fastest first when several are due.
 The scheduler also keeps the pass statistics: cycle time, jitter against the nominal
 period, and overruns. `HeapWatch` tells a board's loop when to collect garbage in its slack.
 """
 
-from hoverfly.compat import ticks_add, ticks_diff
+from hoverfly.compat import TICKS_HALF, ticks_add, ticks_diff
+
+# How far ahead the slow tasks' time lies when there are none: within ticks_diff's range.
+_FAR_US = TICKS_HALF - 1
 
 
 class Task:
@@ -31,16 +38,35 @@ class Scheduler:
         self.overruns = 0
         self._last_us = 0
         self.next_due_us = 0  # the earliest task's next time: run() has nothing to do before it
+        self._fast = None  # the task of the highest rate, checked on its own every run()
+        self._slow = []  # the others, in the order they were added
+        self._slow_due_us = 0  # the soonest of their next times
+        self._started = False
 
     def add(self, name, rate_hz, fn):
-        self.tasks.append(Task(name, rate_hz, fn))
+        """A task at rate_hz. Added after start(), it is due at once (at the last pass's time)."""
+        t = Task(name, rate_hz, fn)
+        self.tasks.append(t)
+        fast = self.tasks[0]
+        for task in self.tasks:
+            if task.rate_hz > fast.rate_hz:
+                fast = task
+        self._fast = fast
+        self._slow = [task for task in self.tasks if task is not fast]
+        if self._started:
+            t.next_us = self._last_us
+            self._slow_due_us = self._last_us
+            self.next_due_us = self._last_us
+        return t
 
     def start(self, now_us, loop_hz):
         self.period_us = 1000000 // loop_hz
         self._last_us = now_us
         for t in self.tasks:
             t.next_us = now_us
+        self._slow_due_us = now_us
         self.next_due_us = now_us
+        self._started = True
 
     def pass_started(self, now_us):
         """Record the cycle time of the pass starting now."""
@@ -62,19 +88,37 @@ class Scheduler:
             self.overruns += 1
 
     def run(self, now_us):
-        # Most passes run no task: one comparison against the earliest due time. (Indexed, not
-        # `for t in self.tasks`: a list iterator takes 4 words of the frame, and past 11 words the frame
-        # comes from the heap at every call on MicroPython.)
+        """Run the tasks that are due: the fastest on its own check, the others when the soonest is due."""
+        # Most passes run no task: one comparison against the earliest due time (Flight.step makes
+        # it before calling). The slow tasks' loop is a method of its own, so that this frame and
+        # that one stay within 11 words (a bigger one comes from the heap at every call on MicroPython).
         if ticks_diff(now_us, self.next_due_us) < 0:
             return
-        first = None
-        for i in range(len(self.tasks)):
-            t = self.tasks[i]
+        fast = self._fast
+        if fast is None:
+            self.next_due_us = ticks_add(now_us, _FAR_US)
+            return
+        if ticks_diff(now_us, fast.next_us) >= 0:
+            self._run(fast, now_us)
+        if ticks_diff(now_us, self._slow_due_us) >= 0:
+            self._run_slow(now_us)
+        nxt = fast.next_us
+        if ticks_diff(self._slow_due_us, nxt) < 0:
+            nxt = self._slow_due_us
+        self.next_due_us = nxt
+
+    def _run_slow(self, now_us):
+        """The tasks other than the fastest that are due, then the soonest of their next times.
+        (Indexed, not `for t in self._slow`: a list iterator takes 4 words of the frame.)"""
+        slow = self._slow
+        soonest = ticks_add(now_us, _FAR_US)
+        for i in range(len(slow)):
+            t = slow[i]
             if ticks_diff(now_us, t.next_us) >= 0:
                 self._run(t, now_us)
-            if first is None or ticks_diff(t.next_us, first) < 0:
-                first = t.next_us
-        self.next_due_us = first
+            if ticks_diff(t.next_us, soonest) < 0:
+                soonest = t.next_us
+        self._slow_due_us = soonest
 
     def _run(self, t, now_us):
         """Run task t, then its next time: a period on, or a period from now if it fell behind."""

@@ -1,0 +1,153 @@
+"""Scheduler: tasks at their rates, the fastest first, the slow ones only looked at when due."""
+
+from hoverfly.compat import TICKS_MAX, ticks_add
+from hoverfly.core.scheduler import Scheduler
+
+
+class Log:
+    """Task functions that note (name, time) of each run."""
+
+    def __init__(self):
+        self.runs = []
+
+    def task(self, name):
+        def fn(now_us):
+            self.runs.append((name, now_us))
+
+        return fn
+
+    def names(self, now_us):
+        return [n for n, t in self.runs if t == now_us]
+
+    def count(self, name):
+        return len([n for n, t in self.runs if n == name])
+
+
+def _flight_like(log, start_us=0):
+    s = Scheduler()
+    s.add("rx", 500, log.task("rx"))
+    s.add("arming", 100, log.task("arming"))
+    s.add("battery", 50, log.task("battery"))
+    s.add("led", 10, log.task("led"))
+    s.start(start_us, 1000)
+    return s
+
+
+def _passes(s, start_us, n, period_us=1000):
+    """n passes, the first at start_us; returns the time of the next one."""
+    t = start_us
+    for _ in range(n):
+        s.pass_started(t)
+        s.run(t)
+        t = ticks_add(t, period_us)
+    return t
+
+
+def test_each_task_runs_at_its_rate():
+    log = Log()
+    s = _flight_like(log)
+    _passes(s, 0, 1000)  # one second at 1 kHz
+    assert log.count("rx") == 500
+    assert log.count("arming") == 100
+    assert log.count("battery") == 50
+    assert log.count("led") == 10
+    assert [t.runs for t in s.tasks] == [500, 100, 50, 10]
+
+
+def test_the_fastest_runs_first_then_the_others_in_order():
+    log = Log()
+    s = _flight_like(log)
+    _passes(s, 0, 101)
+    assert log.names(0) == ["rx", "arming", "battery", "led"]  # all due at start
+    assert log.names(100000) == ["rx", "arming", "battery", "led"]
+    assert log.names(10000) == ["rx", "arming"]
+    assert log.names(2000) == ["rx"]
+    assert log.names(1000) == []
+
+
+def test_fastest_is_found_whatever_the_order_added():
+    log = Log()
+    s = Scheduler()
+    s.add("slow", 10, log.task("slow"))
+    s.add("fast", 250, log.task("fast"))
+    s.start(0, 1000)
+    _passes(s, 0, 100)
+    assert log.count("fast") == 25
+    assert log.count("slow") == 1
+    assert log.names(0) == ["fast", "slow"]
+
+
+def test_next_due_is_the_soonest_task():
+    log = Log()
+    s = _flight_like(log)
+    s.run(0)
+    assert s.next_due_us == 2000  # rx
+    s2 = Scheduler()
+    s2.add("a", 100, log.task("a"))
+    s2.add("b", 50, log.task("b"))
+    s2.start(0, 1000)
+    s2.run(0)
+    assert s2.next_due_us == 10000
+    s2.run(10000)
+    assert s2.next_due_us == 20000
+
+
+def test_run_before_due_does_nothing():
+    log = Log()
+    s = _flight_like(log)
+    s.run(0)
+    n = len(log.runs)
+    s.run(1500)
+    assert len(log.runs) == n
+
+
+def test_task_behind_runs_once_and_is_rescheduled_from_now():
+    log = Log()
+    s = _flight_like(log)
+    s.run(0)
+    s.run(250000)  # a 250 ms stall: each task once, no burst of catch-up
+    assert log.names(250000) == ["rx", "arming", "battery", "led"]
+    assert [t.next_us for t in s.tasks] == [252000, 260000, 270000, 350000]
+    assert s.next_due_us == 252000
+
+
+def test_task_added_after_start_is_due_at_once():
+    log = Log()
+    s = _flight_like(log)
+    t = _passes(s, 0, 6)  # the last pass at 5000
+    s.add("links", 100, log.task("links"))
+    assert s.next_due_us == 5000
+    s.run(5500)
+    assert log.names(5500) == ["links"]
+    _passes(s, t, 100)  # 6000 .. 105000
+    assert log.count("links") == 11  # 5500, then every 10 ms from 15000 to 105000 (a period on from 5000)
+
+
+def test_task_faster_than_the_others_added_after_start():
+    log = Log()
+    s = _flight_like(log)
+    t = _passes(s, 0, 10)
+    s.add("fast", 1000, log.task("fast"))
+    _passes(s, t, 100)  # 10 .. 109 ms
+    assert log.count("fast") == 100
+    assert log.count("rx") == 55  # every 2 ms from 0 to 108
+    assert log.count("arming") == 11  # 0 .. 100 ms
+    assert log.names(10000) == ["fast", "rx", "arming"]  # the fastest first, then in the order added
+
+
+def test_no_tasks():
+    s = Scheduler()
+    s.start(0, 1000)
+    s.run(0)
+    s.run(1000)
+    assert s.tasks == []
+
+
+def test_rates_across_the_tick_wrap():
+    log = Log()
+    start = TICKS_MAX - 500000 + 1  # half a second before the tick counter wraps
+    s = _flight_like(log, start)
+    _passes(s, start, 1000)
+    assert log.count("rx") == 500
+    assert log.count("arming") == 100
+    assert log.count("led") == 10
