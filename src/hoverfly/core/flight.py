@@ -375,7 +375,11 @@ class Flight:
             mode = self._failsafe_setpoint(sp)
         else:
             mode = rc.mode
-            if self.autopilot.apply(self._last_us, sp, rc.stick_raw, rc.throttle_raw):
+            ap = self.autopilot
+            # Autopilot.apply's own test, here: with no autopilot flying and no throttle latch (the usual
+            # pass) it would change nothing, and the call alone costs more than the two look-ups.
+            if (ap.state == AP_ENABLED or ap.latch_norm >= 0.0) and ap.apply(self._last_us, sp, rc.stick_raw,
+                                                                             rc.throttle_raw):
                 rc.fill_setpoint(sp)
         if mode != self._mode:
             self._mode = mode
