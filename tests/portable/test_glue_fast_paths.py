@@ -315,6 +315,7 @@ def test_mpu6050_read_equals_signed16_and_rotate_scaled_for_every_mount():
 
 
 def test_rc_new_frame_mode_ranges_equal_in_range():
+    # new_frame's mode ranges and fs_switch_in are _in_range() inline: the same answers
     from hoverfly.core.control import MODE_ACRO, MODE_ANGLE, MODE_HORIZON
     from hoverfly.core.rc import _in_range
 
@@ -329,8 +330,10 @@ def test_rc_new_frame_mode_ranges_equal_in_range():
         rc._horizon = ((k * 7) % 18, 1300, 1700)
         rc._angle = ((k * 5) % 17, 1200, 2100)
         rc._airmode = ((k * 3) % 19, 1500, 1500 + k)
+        rc._fs_switch = ((k * 11) % 18, 1100 + k, 1800)
         rc.new_frame(channels)
-        a, h, g, m = rc._arm, rc._horizon, rc._angle, rc._airmode
+        a, h, g, m, fs = rc._arm, rc._horizon, rc._angle, rc._airmode, rc._fs_switch
+        assert rc.fs_switch_in(channels) is _in_range(channels, fs[0], fs[1], fs[2])
         assert rc.arm_switch is _in_range(channels, a[0], a[1], a[2])
         if _in_range(channels, h[0], h[1], h[2]):
             mode = MODE_HORIZON

@@ -313,8 +313,8 @@ class RcInput:
 
     def fs_switch_in(self, channels_us):
         """True when the failsafe switch (fs_switch_ch, 0 = none) is in range in this raw frame."""
-        f = self._fs_switch
-        return _in_range(channels_us, f[0], f[1], f[2])
+        ch, lo, hi = self._fs_switch  # _in_range() inline, as in _modes: a call a frame fewer
+        return 0 < ch <= len(channels_us) and lo <= channels_us[ch - 1] < hi
 
     def _stick(self, us, deadband):
         d = us - 1500
@@ -362,15 +362,18 @@ class RcInput:
             self._throttle(us)
 
     def _axis(self, i, us, deadband):
-        if i == 1:
-            # Pitch stick forward (more µs) means nose down: negative pitch in FRD.
+        if self.fixed:
+            # The fixed stage's Q20 input, and the float from it (within 2**-21 of _stick's): one float
+            # object and one call a moving stick, not _stick's call and division as well.
+            q = _stick_q(us, deadband)
+            if i == 1:
+                q = -q  # pitch stick forward (more µs) means nose down: negative pitch in FRD
+            self._st[S_X + i] = q
+            self.stick_raw[i] = q * _INV20
+        elif i == 1:
             self.stick_raw[1] = -self._stick(us, deadband)
-            if self.fixed:
-                self._st[S_X + 1] = -_stick_q(us, deadband)
         else:
             self.stick_raw[i] = self._stick(us, deadband)
-            if self.fixed:
-                self._st[S_X + i] = _stick_q(us, deadband)
 
     def _throttle(self, t):
         self.throttle_us = t

@@ -168,10 +168,12 @@ class Receiver:
         dec = self.decoder
         if self.serial:
             n = board.read_rx(self._buf)
-            new = dec.feed(self._buf, n) if n > 0 else 0  # most polls find nothing
-            if n >= _READ_BYTES:  # a full read: more may be waiting
-                new += self._read_more(board)
-            self.errors = dec.crc_errors + dec.length_errors
+            new = 0
+            if n > 0:  # many polls find nothing, and then the codec's counts cannot have moved either
+                new = dec.feed(self._buf, n)
+                if n >= _READ_BYTES:  # a full read: more may be waiting
+                    new += self._read_more(board)
+                self.errors = dec.crc_errors + dec.length_errors
         else:
             new = self._read_edges(board)
         if new:
