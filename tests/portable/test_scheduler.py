@@ -1,4 +1,5 @@
-"""Scheduler: tasks at their rates, the fastest first, the slow ones only looked at when due."""
+"""Scheduler: tasks at their rates, the fastest first, the slow ones only looked at when due and kept off the
+fastest task's passes."""
 
 from hoverfly.compat import TICKS_MAX, ticks_add
 from hoverfly.core.scheduler import Scheduler
@@ -54,15 +55,45 @@ def test_each_task_runs_at_its_rate():
     assert [t.runs for t in s.tasks] == [500, 100, 50, 10]
 
 
-def test_the_fastest_runs_first_then_the_others_in_order():
+def test_the_fastest_runs_first_then_the_others_on_the_next_pass_in_order():
     log = Log()
     s = _flight_like(log)
-    _passes(s, 0, 101)
-    assert log.names(0) == ["rx", "arming", "battery", "led"]  # all due at start
-    assert log.names(100000) == ["rx", "arming", "battery", "led"]
-    assert log.names(10000) == ["rx", "arming"]
+    _passes(s, 0, 102)
+    assert log.names(0) == ["rx"]  # all due at start: the receiver, and the others a pass later
+    assert log.names(1000) == ["arming", "battery", "led"]
+    assert log.names(100000) == ["rx"]
+    assert log.names(101000) == ["arming", "battery", "led"]
+    assert log.names(10000) == ["rx"]
+    assert log.names(11000) == ["arming"]
     assert log.names(2000) == ["rx"]
-    assert log.names(1000) == []
+    assert log.names(3000) == []
+
+
+def test_receiver_and_arming_never_share_a_pass_at_1khz():
+    # The two heaviest jobs (a receiver frame, the 100 Hz arming and failsafe task) in passes of their own:
+    # the longest pass is the loop and one of them.
+    log = Log()
+    s = _flight_like(log)
+    _passes(s, 0, 2000)
+    rx = set(t for n, t in log.runs if n == "rx")
+    arming = set(t for n, t in log.runs if n == "arming")
+    assert len(rx) == 1000 and len(arming) == 200
+    assert not (rx & arming)
+    assert all(t % 10000 == 1000 for t in arming)  # one pass after its time, every 10 ms: no drift
+
+
+def test_a_loop_as_slow_as_the_receiver_still_runs_everything():
+    # At 500 Hz the receiver runs every pass: the others run a pass late with it, not never.
+    log = Log()
+    s = Scheduler()
+    s.add("rx", 500, log.task("rx"))
+    s.add("arming", 100, log.task("arming"))
+    s.add("led", 10, log.task("led"))
+    s.start(0, 500)
+    _passes(s, 0, 500, 2000)  # one second
+    assert (log.count("rx"), log.count("arming"), log.count("led")) == (500, 100, 10)
+    assert log.names(0) == ["rx"]
+    assert log.names(2000) == ["rx", "arming", "led"]
 
 
 def test_fastest_is_found_whatever_the_order_added():
@@ -74,28 +105,37 @@ def test_fastest_is_found_whatever_the_order_added():
     _passes(s, 0, 100)
     assert log.count("fast") == 25
     assert log.count("slow") == 1
-    assert log.names(0) == ["fast", "slow"]
+    assert log.names(0) == ["fast"]
+    assert log.names(1000) == ["slow"]
 
 
 def test_next_due_is_the_soonest_task():
     log = Log()
     s = _flight_like(log)
     s.run(0)
+    assert s.next_due_us == 0  # arming, battery and LED wait for the next pass
+    s.run(1000)
     assert s.next_due_us == 2000  # rx
     s2 = Scheduler()
     s2.add("a", 100, log.task("a"))
     s2.add("b", 50, log.task("b"))
     s2.start(0, 1000)
     s2.run(0)
+    s2.run(1000)
     assert s2.next_due_us == 10000
     s2.run(10000)
     assert s2.next_due_us == 20000
+    s2.run(20000)
+    assert s2.next_due_us == 20000  # b is due, kept off a's pass: the next pass runs it
+    s2.run(21000)
+    assert s2.next_due_us == 30000
 
 
 def test_run_before_due_does_nothing():
     log = Log()
     s = _flight_like(log)
     s.run(0)
+    s.run(1000)
     n = len(log.runs)
     s.run(1500)
     assert len(log.runs) == n
@@ -105,7 +145,7 @@ def test_task_behind_runs_once_and_is_rescheduled_from_now():
     log = Log()
     s = _flight_like(log)
     s.run(0)
-    s.run(250000)  # a 250 ms stall: each task once, no burst of catch-up
+    s.run(250000)  # a 250 ms stall: each task once, no burst of catch-up (all late: none waits a pass)
     assert log.names(250000) == ["rx", "arming", "battery", "led"]
     assert [t.next_us for t in s.tasks] == [252000, 260000, 270000, 350000]
     assert s.next_due_us == 252000
@@ -130,9 +170,10 @@ def test_task_faster_than_the_others_added_after_start():
     s.add("fast", 1000, log.task("fast"))
     _passes(s, t, 100)  # 10 .. 109 ms
     assert log.count("fast") == 100
-    assert log.count("rx") == 55  # every 2 ms from 0 to 108
-    assert log.count("arming") == 11  # 0 .. 100 ms
-    assert log.names(10000) == ["fast", "rx", "arming"]  # the fastest first, then in the order added
+    assert log.count("rx") == 55  # every 2 ms: 0 to 8, then a pass late (fast takes every pass) 11 to 109
+    assert log.count("arming") == 11  # 1 .. 101 ms
+    assert log.names(10000) == ["fast"]
+    assert log.names(11000) == ["fast", "rx", "arming"]  # the fastest first, then in the order added
 
 
 def test_no_tasks():

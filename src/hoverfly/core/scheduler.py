@@ -5,7 +5,11 @@ task that fell behind runs once and is rescheduled from now (no bursts of catch-
 The fastest task (the receiver's, 500 Hz: every other pass at 1 kHz) is checked on its own;
 the others are looked at only once the soonest of them is due, so a pass that runs just the
 receiver does not walk the whole table (on MicroPython each look is a few thousand instructions).
-Tasks run in the order they were added, the fastest first when several are due.
+The others keep off a pass that ran the fastest (or another of them) until they have waited one
+loop period: at 1 kHz the receiver's frame and the 100 Hz arming and failsafe task, the two heaviest
+jobs, never share a pass, so the longest pass is one of them and the gyro/PID loop, not both (as
+Betaflight's scheduler runs a task only where it fits). A loop slower than the receiver's rate still
+runs everything, a pass late. Tasks run in the order they were added, the fastest first.
 The scheduler also keeps the pass statistics: cycle time, jitter against the nominal
 period, and overruns. `HeapWatch` tells a board's loop when to collect garbage in its slack.
 """
@@ -39,7 +43,7 @@ class Scheduler:
         self._last_us = 0
         self.next_due_us = 0  # the earliest task's next time: run() has nothing to do before it
         self._fast = None  # the task of the highest rate, checked on its own every run()
-        self._slow = []  # the others, in the order they were added
+        self._slow = []  # the others, the last added first
         self._slow_due_us = 0  # the soonest of their next times
         self._started = False
 
@@ -53,6 +57,7 @@ class Scheduler:
                 fast = task
         self._fast = fast
         self._slow = [task for task in self.tasks if task is not fast]
+        self._slow.reverse()  # _run_slow walks it from the end
         if self._started:
             t.next_us = self._last_us
             self._slow_due_us = self._last_us
@@ -98,24 +103,31 @@ class Scheduler:
         if fast is None:
             self.next_due_us = ticks_add(now_us, _FAR_US)
             return
+        wait_us = 0  # how late a slow task must be to run in this pass: a loop period once a task ran
         if ticks_diff(now_us, fast.next_us) >= 0:
             self._run(fast, now_us)
-        if ticks_diff(now_us, self._slow_due_us) >= 0:
-            self._run_slow(now_us)
+            wait_us = self.period_us
+        if ticks_diff(now_us, self._slow_due_us) >= wait_us:  # none may run yet: not even the walk
+            self._run_slow(now_us, wait_us)
         nxt = fast.next_us
         if ticks_diff(self._slow_due_us, nxt) < 0:
             nxt = self._slow_due_us
         self.next_due_us = nxt
 
-    def _run_slow(self, now_us):
-        """The tasks other than the fastest that are due, then the soonest of their next times.
-        (Indexed, not `for t in self._slow`: a list iterator takes 4 words of the frame.)"""
-        slow = self._slow
+    def _run_slow(self, now_us, wait_us):
+        """The tasks other than the fastest that are due, then the soonest of their next times. A due task
+        runs once it is wait_us late: 0 on a pass no task has taken yet; a loop period on one another task
+        took, so it waits for the next pass unless it has waited that long already. (Indexed from the end,
+        not `for t in ...` or a range: a list iterator takes 4 words of the frame, a range loop one, and
+        this frame is at 11 words.)"""
         soonest = ticks_add(now_us, _FAR_US)
-        for i in range(len(slow)):
-            t = slow[i]
-            if ticks_diff(now_us, t.next_us) >= 0:
+        i = len(self._slow)
+        while i > 0:  # _slow is held last-added first: from its end, in the order added
+            i -= 1
+            t = self._slow[i]
+            if ticks_diff(now_us, t.next_us) >= wait_us:
                 self._run(t, now_us)
+                wait_us = self.period_us
             if ticks_diff(t.next_us, soonest) < 0:
                 soonest = t.next_us
         self._slow_due_us = soonest
