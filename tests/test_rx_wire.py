@@ -86,7 +86,9 @@ def test_radio_loss_is_noticed_within_the_timeout_on_every_wire(rx):
     # PPM's last frame completes at the first edge of the next, so its last one is older still
     assert 5.0 - 2 * period_s - 0.003 <= lost[0] <= 5.0 + 0.003
     stage1 = _events(r, "failsafe_stage1")
-    assert stage1 and 0.09 <= stage1[0] - lost[0] <= 0.11  # rx_timeout_ms = 100
+    # rx_timeout_ms = 100, seen by the 100 Hz failsafe task: up to 10 ms on, and a pass (1 ms) more when its
+    # time falls on a pass the receiver task took (core/scheduler.py keeps the two apart)
+    assert stage1 and 0.09 <= stage1[0] - lost[0] <= 0.1115
     rv = run.flight.receiver
     assert rv.frame_rate_hz == 0  # a second later nothing valid arrives
     if rx == "sbus":
