@@ -538,8 +538,7 @@ class Flight:
         bit = self.bit
         bit.update(imu_ok, self.rx_ok, not self.overloaded, battery_ok, self.calibration.calibrated)
         more = session_flags(self.config_session)
-        test = getattr(self, "motor_test", None)
-        if test is not None and test.active:
+        if self.motor_test.active:
             more |= 1 << MOTOR_TEST
         if not battery_ok:
             more |= 1 << BATTERY_CRITICAL
