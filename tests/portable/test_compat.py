@@ -25,3 +25,32 @@ def test_crc8_check_values_from_the_catalogue():
     assert crc8_dvb_s2(data) == 0xBC
     assert crc8_ba(data) == 0x20
     assert xor8(data) == 0x31
+
+
+def test_attr_room_leaves_an_attribute_table_room():
+    from hoverfly.compat import IS_MICROPYTHON, ROOM_LOAD_PCT, attr_room, map_size
+
+    class Bag:
+        pass
+
+    for n in range(0, 200):
+        b = Bag()
+        for i in range(n):
+            setattr(b, "a%d" % i, i)
+        k = attr_room(b)
+        if not IS_MICROPYTHON:
+            assert k == 0 and len(b.__dict__) == n
+            continue
+        m = n + k
+        assert len(b.__dict__) == m
+        assert m == 0 or m * 100 <= map_size(m) * ROOM_LOAD_PCT  # room now
+        assert k == 0 or (m - 1) * 100 > map_size(m - 1) * ROOM_LOAD_PCT  # and no spare one more than needed
+        assert attr_room(b) == 0  # a second call has nothing to add
+        for i in range(n):
+            assert getattr(b, "a%d" % i) == i  # the object's own attributes untouched
+    assert [map_size(n) for n in (0, 1, 8, 9, 69, 73, 74)] == [0, 2, 8, 10, 73, 73, 97]
+    b = Bag()
+    for i in range(69):  # the Flight's count
+        setattr(b, "a%d" % i, i)
+    if IS_MICROPYTHON:
+        assert attr_room(b) == 5 and len(b.__dict__) == 74

@@ -7,7 +7,7 @@ reads the parameters into every stage (again whenever they change while disarmed
 
 from array import array
 
-from hoverfly.compat import ticks_diff
+from hoverfly.compat import attr_room, ticks_diff
 from hoverfly.core.arming import (
     AUTOPILOT,
     BATTERY_CRITICAL,
@@ -221,6 +221,7 @@ class Flight:
         self._route()  # the calibration runs again: the pass feeds it
         self.scheduler.start(now_us, self.loop_hz)
         self.logger.start(now_us)
+        attr_room(self)  # MicroPython: the pass's many look-ups here, in a table with room (compat.attr_room)
 
     # ------------------------------------------------------------------ the pass
     def step(self, now_us):
