@@ -30,8 +30,8 @@ CHIPS = ("rp2040", "rp2350", "rp2350-riscv")  # the boards; unix-x64 is the PC's
 # Modules compiled to machine code. Native code keeps its frames on the C stack, where MicroPython gives
 # a bytecode function whose state (locals and value stack) passes 11 words a frame from the heap on every
 # call. Flight's methods had the largest frames, and native they saved a quarter of the pass; since the
-# pass keeps every frame within 11 words (2026-12), flight.py native saves only 1.5 k instructions of 122.7 k
-# for 19 KB on an RP2040 (bench/bundle_loop.py --each), and the split's calls cost the native bundle 4.4 k
+# pass keeps every frame within 11 words (2026-12), flight.py native saves only 1.5-1.7 k instructions of
+# 115 k for 19 KB on an RP2040 (bench/bundle_loop.py: 114.7 k bytecode, 113.0 k with it; --each)
 # (docs/pico.md, "What a pass costs": whether it stays is for a timing on a board). Native code is about
 # three times the size of its bytecode and, loaded from the filesystem, sits in RAM, so a module is here
 # only where its saving pays for its bytes.
