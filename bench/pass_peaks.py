@@ -39,27 +39,14 @@ def _child(place, cycles):
 
 def main():
     import json
-    import os
-    import shutil
-    from concurrent.futures import ThreadPoolExecutor
 
-    from core_instructions import micropython_vm
-    from stage_instructions import _count
+    from stage_instructions import child_counts
 
-    if shutil.which("valgrind") is None:
-        print(json.dumps({"error": "valgrind is not on PATH"}))
+    counts, error = child_counts(__file__, [(str(k), str(CYCLES)) for k in range(CYCLE)])
+    if error:
+        print(json.dumps({"error": error}))
         return 1
-    mp = micropython_vm()
-    if mp is None:
-        print(json.dumps({"error": "no micropython VM"}))
-        return 1
-    here = os.path.dirname(os.path.abspath(__file__))
-    env = dict(os.environ, MICROPYPATH="%s:%s" % (os.path.join(os.path.dirname(here), "src"), here))
-    me = os.path.abspath(__file__)
-    with ThreadPoolExecutor(os.cpu_count() or 2) as ex:
-        runs = [ex.submit(_count, [mp, "-X", "heapsize=512k", me, "--child", str(k), str(CYCLES)], env)
-                for k in range(CYCLE)]
-        ir = [round(r.result() / CYCLES) for r in runs]
+    ir = [round(c / CYCLES) for c in counts]
     top = max(ir)
     print(json.dumps({"cycle": CYCLE, "cycles": CYCLES, "ir_by_place": ir, "ir_max": top,
                       "ir_mean": round(sum(ir) / CYCLE), "place_of_max": ir.index(top)}))

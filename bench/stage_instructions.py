@@ -82,8 +82,9 @@ def _count(cmd, env):
     return total
 
 
-def main():
-    import json
+def child_counts(script, child_args):
+    """Each child run of `script` (`VM script --child ARGS...`, one per entry of child_args) counted by _count
+    under callgrind, on all cores: (counts, None); or (None, reason) without valgrind or the MicroPython VM."""
     import os
     import shutil
     from concurrent.futures import ThreadPoolExecutor
@@ -91,21 +92,27 @@ def main():
     from core_instructions import micropython_vm
 
     if shutil.which("valgrind") is None:
-        print(json.dumps({"error": "valgrind is not on PATH"}))
-        return 1
+        return None, "valgrind is not on PATH"
     mp = micropython_vm()
     if mp is None:
-        print(json.dumps({"error": "no micropython VM"}))
-        return 1
+        return None, "no micropython VM"
     here = os.path.dirname(os.path.abspath(__file__))
     env = dict(os.environ, MICROPYPATH="%s:%s" % (os.path.join(os.path.dirname(here), "src"), here))
-    me = os.path.abspath(__file__)
-    names = sys.argv[1:] or list(DEFAULT)
     with ThreadPoolExecutor(os.cpu_count() or 2) as ex:
-        runs = [(n, ex.submit(_count, [mp, "-X", "heapsize=512k", me, "--child", n, str(PASSES)], env))
-                for n in names]
-        stages = {n: round(r.result() / PASSES) for n, r in runs}
-    print(json.dumps({"passes": PASSES, "stages": stages}))
+        runs = [ex.submit(_count, [mp, "-X", "heapsize=512k", os.path.abspath(script), "--child"] + list(a), env)
+                for a in child_args]
+        return [r.result() for r in runs], None
+
+
+def main():
+    import json
+
+    names = sys.argv[1:] or list(DEFAULT)
+    counts, error = child_counts(__file__, [(n, str(PASSES)) for n in names])
+    if error:
+        print(json.dumps({"error": error}))
+        return 1
+    print(json.dumps({"passes": PASSES, "stages": {n: round(c / PASSES) for n, c in zip(names, counts, strict=True)}}))
     return 0
 
 
