@@ -421,7 +421,7 @@ class Flight:
         AIRMODE switch (here in the receiver task, not in every pass's command())."""
         rc = self.rc
         self.autopilot.on_pilot_frame(self._last_us, rc.arm_switch, self.arming.armed)
-        self.airmode_enabled = rc.airmode_switch if rc.airmode_box else self.mixer.airmode  # _airmode_from_switch
+        self._airmode_from_switch()
 
     def _failsafe_setpoint(self, sp):
         """The failsafe's setpoint: level (angle mode, sticks centred) and its throttle in stage 2."""
