@@ -1,7 +1,7 @@
 """Scheduler: tasks at their rates, the fastest first, the slow ones only looked at when due and kept off the
 fastest task's passes."""
 
-from hoverfly.compat import TICKS_MAX, ticks_add
+from hoverfly.compat import TICKS_MAX, ticks_add, ticks_diff
 from hoverfly.core.scheduler import Scheduler
 
 
@@ -38,7 +38,7 @@ def _passes(s, start_us, n, period_us=1000):
     """n passes, the first at start_us; returns the time of the next one."""
     t = start_us
     for _ in range(n):
-        s.pass_started(t)
+        s.pass_started(t, period_us)
         s.run(t)
         t = ticks_add(t, period_us)
     return t
@@ -182,6 +182,7 @@ def test_no_tasks():
     s.run(0)
     s.run(1000)
     assert s.tasks == []
+    assert ticks_diff(s.next_due_us, 1000) > 1000000  # nothing due: the pass does not call run() again
 
 
 def test_rates_across_the_tick_wrap():
@@ -192,3 +193,13 @@ def test_rates_across_the_tick_wrap():
     assert log.count("rx") == 500
     assert log.count("arming") == 100
     assert log.count("led") == 10
+
+
+def test_pass_statistics():
+    s = Scheduler()
+    s.start(0, 1000)
+    for t, cycle in ((1000, 1000), (2200, 1200), (3100, 900), (4100, 1000)):
+        s.pass_started(t, cycle)
+    assert s.passes == 4
+    assert s.cycle_us == 1000 and s.cycle_max_us == 1200
+    assert s.jitter_max_us == 200 and s.jitter_sum_us == 300

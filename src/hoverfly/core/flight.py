@@ -232,7 +232,7 @@ class Flight:
         dt_us = ticks_diff(now_us, self._last_us)
         self.pass_dt_us = dt_us
         self._last_us = now_us
-        self.scheduler.pass_started(now_us)
+        self.scheduler.pass_started(now_us, dt_us)
         self._sense(now_us, dt_us)  # 1. IMU and filters, 2. estimator
         # 3. commander: the pilot's sticks, or the failsafe's
         sp = self.signals.setpoint

@@ -73,15 +73,14 @@ class Scheduler:
         self.next_due_us = now_us
         self._started = True
 
-    def pass_started(self, now_us):
-        """Record the cycle time of the pass starting now."""
-        c = ticks_diff(now_us, self._last_us)
+    def pass_started(self, now_us, cycle_us):
+        """Record the pass starting now, cycle_us after the last one (Flight.step has it as its dt)."""
         self._last_us = now_us
         self.passes += 1
-        self.cycle_us = c
-        if c > self.cycle_max_us:
-            self.cycle_max_us = c
-        j = c - self.period_us
+        self.cycle_us = cycle_us
+        if cycle_us > self.cycle_max_us:
+            self.cycle_max_us = cycle_us
+        j = cycle_us - self.period_us
         if j < 0:
             j = -j
         self.jitter_sum_us += j
