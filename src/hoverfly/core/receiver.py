@@ -10,6 +10,9 @@ telemetry back on the same UART (`board.write_rx`): battery, attitude and flight
 mode, one frame right after an RC frame at most every 25 ms (CrsfTelemetryScheduler).
 It runs in the receiver task (500 Hz), never in the flight pass; Flight.task_rx hands
 the channels to the RC input stage and decides link lost / restored from `last_frame_us`.
+With `rx_core1` (rp2 board, `use_core1`) the UART and the codec are the second core's
+(core/rxcore.py): update() takes the frames it published instead of reading, and the
+telemetry frames go back out through it; everything else here is unchanged.
 
 What counts as a valid frame: a frame the codec accepted (CRC, checksum, footer, pulse
 widths) that does not carry the receiver's own failsafe flag (SBUS flag bit 3). A
@@ -96,6 +99,8 @@ class Receiver:
         self.provider = ""
         self.decoder = None
         self.serial = True
+        self._uart_here = True  # a serial codec fed in this task (not pin edges, not core 1's frames)
+        self._link = None  # rxcore.LinkView once the codec runs on core 1 (use_core1)
         self._crsf = False
         self._pwm = False
         self.pwm_channels = 6
@@ -134,12 +139,14 @@ class Receiver:
     def configure(self, params):
         provider = params.get("rx_provider")
         pwm_channels = params.get("rx_pwm_channels")
-        if provider != self.provider or (provider == "pwm" and pwm_channels != self.pwm_channels):
-            # A new codec only when the wire changes: counters survive other parameter writes.
+        wire = provider != self.provider or (provider == "pwm" and pwm_channels != self.pwm_channels)
+        if wire and self._link is None:
+            # A new codec only when the wire changes: counters survive other parameter writes. (Not once
+            # core 1 runs the codec: a new wire takes a reboot, as rx_provider says.)
             self.provider = provider
             self.pwm_channels = pwm_channels
             self.decoder = make_decoder(provider, pwm_channels)
-            self.serial = provider in ("crsf", "sbus", "ibus")
+            self.serial = self._uart_here = provider in ("crsf", "sbus", "ibus")
             self._crsf = provider == "crsf"
             self._pwm = provider == "pwm"
             self.channels_us = self.decoder.channels_us
@@ -152,6 +159,22 @@ class Receiver:
                 self.telemetry = CrsfTelemetryScheduler(TELEMETRY_INTERVAL_US)
         else:
             self.telemetry = None
+
+    def use_core1(self, link):
+        """Hand the serial codec to the second core: returns the rxcore.RxCore to run there (its `run`);
+        from now on update() takes the frames it publishes on `link` (an rxcore.RxLink) and the telemetry
+        frames go out through it. None for pin-edge receivers (PPM/PWM), which stay here."""
+        if not self.serial or self._link is not None:
+            return None
+        from hoverfly.core.rxcore import LinkView, RxCore
+
+        core = RxCore(link, self.decoder)
+        view = LinkView(link)
+        self._link = view
+        self.decoder = view
+        self.channels_us = view.channels_us
+        self._uart_here = False
+        return core
 
     def start(self, now_us):
         self.last_frame_us = now_us
@@ -166,7 +189,7 @@ class Receiver:
         # words takes it from the heap on every call on MicroPython (docs/pico.md); the rarer paths are
         # methods of their own.
         dec = self.decoder
-        if self.serial:
+        if self._uart_here:
             n = board.read_rx(self._buf)
             new = 0
             if n > 0:  # many polls find nothing, and then the codec's counts cannot have moved either
@@ -175,7 +198,7 @@ class Receiver:
                     new += self._read_more(board)
                 self.errors = dec.crc_errors + dec.length_errors
         else:
-            new = self._read_edges(board)
+            new = self._read_other(board)
         if new:
             new = self._count_frames(now_us, new)
         self.new_frames = new
@@ -202,6 +225,15 @@ class Receiver:
             new += dec.feed(buf, n)
             if n < _READ_BYTES:
                 break
+        return new
+
+    def _read_other(self, board):
+        """Pin edges (PPM/PWM), or the frames the second core published (rx_core1)."""
+        view = self._link
+        if view is None:
+            return self._read_edges(board)
+        new = view.take()
+        self.errors = view.crc_errors + view.length_errors
         return new
 
     def _read_edges(self, board):
@@ -304,9 +336,16 @@ class Receiver:
             t.set_attitude(a.pitch_rad, a.roll_rad, a.yaw_rad)
         if kind < 0 or kind == _KIND_FLIGHT_MODE:
             t.set_flight_mode(flight_mode_text(mode, airmode, failsafe, armed, arming_flags))
-        n = t.poll(now_us, self.new_frames, self._tlm_buf)
+        view = self._link
+        buf = self._tlm_buf if view is None else view.tx_buffer()
+        if buf is None:  # core 1 has not written the last frame yet: this one waits for the next slot
+            return 0
+        n = t.poll(now_us, self.new_frames, buf)
         self._tlm_next_us = ticks_add(now_us, TELEMETRY_INTERVAL_US)
         if n:
-            board.write_rx(self._tlm_buf, n)
+            if view is None:
+                board.write_rx(buf, n)
+            else:
+                view.send(n)
             self.telemetry_frames += 1
         return n
