@@ -57,7 +57,7 @@ def on_pass(flight):
 
 EPILOGUE = """
 flight, stats = fw.main(board=board, passes=int(%(seconds)r * 500), on_pass=on_pass,
-                        overrides=(("loop_hz", 500),))
+                        overrides=(("loop_hz", 500),%(overrides)s))
 r = world.stats()
 r["faults"] = board.faults
 r["status"] = board.status_line()
@@ -73,12 +73,13 @@ print("RESULT " + json.dumps(r))
 """
 
 
-def run_board(tmp_path, body, seconds, imu="mpu6050", judge=5.0, heap="2m", usb="False", hook="", lib=None):
+def run_board(tmp_path, body, seconds, imu="mpu6050", judge=5.0, heap="2m", usb="False", hook="", lib=None,
+              overrides=""):
     """The board's main loop under MicroPython for `seconds`, from the sources (or from `lib`, a flash
     bundle's lib/); the RESULT it printed. (2 MB: compiling the core from source on the 64-bit VM leaves a
     fragmented 1 MB heap without room for the storage's 10 kB image; a board loads precompiled .mpy.)"""
     values = {"airframe": repr(load_airframe("5inch")), "judge": judge, "imu": imu, "usb": usb,
-              "storage": str(tmp_path / "params.bin"), "seconds": seconds}
+              "storage": str(tmp_path / "params.bin"), "seconds": seconds, "overrides": overrides}
     script = tmp_path / "run.py"
     script.write_text(PRELUDE % values + body + EPILOGUE % values)
     env = dict(os.environ, MICROPYPATH="%s:%s:.frozen" % (FAKES, lib or ROOT / "src"))
@@ -107,6 +108,48 @@ def test_rp2_main_loop_hovers_under_micropython(tmp_path):
     assert r["tilt_rms_deg"] <= 1.5
     assert 1.5 <= r["alt_m"] <= 2.5
     assert r["gc_runs"] >= 1  # collections happened, in the slack
+
+
+@needs_mp
+def test_rp2_main_loop_hovers_with_the_receiver_parsed_on_core_1(tmp_path):
+    # given rx_core1 (the receiver UART and CRSF codec on a second thread, core 1 on a Pico), when the
+    # board's own loop flies the hover, then it holds it as well as with the receiver parsed in the loop's
+    # task, every frame reaching the loop through the handover and the loop's telemetry going back out
+    body = ("world.at(2.0, arm)\nworld.at(2.5, hold(2.0))\n"
+            "from hoverfly.core.rxcore import W_POLLS, W_RUNNING\n"
+            "def extra(flight):\n"
+            "    w = board._rx_link.words\n"
+            "    return {'rx_frames': flight.receiver.frames, 'polls': w[W_POLLS], 'running': w[W_RUNNING],\n"
+            "            'torn': flight.receiver.decoder.torn, 'tlm': flight.receiver.telemetry_frames,\n"
+            "            'tx': len(machine.uart(1).tx), 'fault': repr(board._rx_link.fault)}\n")
+    r = run_board(tmp_path, body, seconds=7.0, judge=4.5, overrides=' ("rx_core1", 1),')
+    assert r["faults"] == 0, r["status"]
+    assert "parsed on core 1" in r["status"]
+    assert r["armed"] and r["spun"] and not r["crashed"]
+    assert r["tilt_rms_deg"] <= 1.5
+    assert 1.5 <= r["alt_m"] <= 2.5
+    assert r["polls"] > 0 and r["fault"] == "None"
+    assert r["rx_frames"] >= 6.5 * 250  # the world's 250 Hz frames from boot to the end, through core 1
+    assert r["tlm"] > 100 and r["tx"] > 100 * 10  # telemetry frames written by core 1
+    assert r["running"] == 0  # main() stopped core 1's loop on its way out
+
+
+@needs_mp
+def test_core_1_stopping_on_an_error_is_a_fault_and_the_link_watch_fails_safe(tmp_path):
+    # given a hover with rx_core1, when the receiver UART starts raising on core 1 at 3 s, then core 1's
+    # loop stops, the board names the fault and the error, and the flight's link watch runs the failsafe
+    body = ("world.at(2.0, arm)\nworld.at(2.5, hold(2.0))\n"
+            "def broken(buf, n=-1):\n"
+            "    raise OSError(5)\n"
+            "def brk(w):\n"
+            "    machine.uart(1).readinto = broken\n"
+            "world.at(3.0, brk)\n"
+            "def extra(flight):\n"
+            "    return {'fs_state': flight.failsafe.state, 'rx_ok': flight.rx_ok}\n")
+    r = run_board(tmp_path, body, seconds=4.0, judge=10.0, overrides=' ("rx_core1", 1),')
+    assert r["faults"] == 32, r["status"]
+    assert "core 1 stopped: OSError" in r["status"] and "rx_core1_stopped" in r["status"]
+    assert not r["rx_ok"] and r["fs_state"] != 0  # the failsafe flies (or has landed) the craft
 
 
 @needs_mp

@@ -7,7 +7,8 @@ the test wires before the board boots:
 - `attach_i2c(bus_id, device)`: register models (regmodels.py) that answer on I2C bus 0/1;
   `i2c_fail(bus_id, n)` makes the next n transfers raise OSError(EIO) (a bus error).
 - `uart(uart_id)`: the UART object the board opened; `inject(data)` queues bytes on its RX
-  line (a receiver talking), `tx` collects what the board sent.
+  line (a receiver talking), `tx` collects what the board sent. Safe from two threads (rx_core1 reads
+  it on a second thread), as the port's interrupt-fed ring buffers are.
 - `Pin.fire(level, t_us)` runs the pin's IRQ handler as the hardware would on an edge.
 - `PWM` records freq and duty_ns; `ADC` reads `ADC.values[pin]` (0..65535).
 - `Timer`s register here; `run_timers(now_ms)` fires each one whose period came round (the
@@ -15,6 +16,8 @@ the test wires before the board boots:
 
 Nothing here sleeps or reads a real clock.
 """
+
+import _thread
 
 EIO = 5
 ENODEV = 19
@@ -198,40 +201,45 @@ class UART:
         self._rx = bytearray()
         self.tx = bytearray()
         self.overflows = 0
+        self._lock = _thread.allocate_lock()
         _uarts[uart_id] = self
 
     def inject(self, data):
         """Bytes arriving on RX; beyond rxbuf they are lost, as in the port's ring buffer."""
-        room = self.rxbuf - len(self._rx)
-        if len(data) > room:
-            self.overflows += 1
-            data = data[:room]
-        self._rx.extend(data)
+        with self._lock:
+            room = self.rxbuf - len(self._rx)
+            if len(data) > room:
+                self.overflows += 1
+                data = data[:room]
+            self._rx.extend(data)
 
     def any(self):
         return len(self._rx)
 
     def readinto(self, buf, nbytes=-1):
-        n = len(buf) if nbytes < 0 else nbytes
-        if n > len(self._rx):
-            n = len(self._rx)
-        if n == 0:
-            return None  # the rp2 port returns None when nothing is waiting
-        for i in range(n):
-            buf[i] = self._rx[i]
-        self._rx = self._rx[n:]
-        return n
+        with self._lock:
+            n = len(buf) if nbytes < 0 else nbytes
+            if n > len(self._rx):
+                n = len(self._rx)
+            if n == 0:
+                return None  # the rp2 port returns None when nothing is waiting
+            for i in range(n):
+                buf[i] = self._rx[i]
+            self._rx = self._rx[n:]
+            return n
 
     def read(self, nbytes=-1):
-        n = len(self._rx) if nbytes < 0 else min(nbytes, len(self._rx))
-        if n == 0:
-            return None
-        out = bytes(self._rx[:n])
-        self._rx = self._rx[n:]
-        return out
+        with self._lock:
+            n = len(self._rx) if nbytes < 0 else min(nbytes, len(self._rx))
+            if n == 0:
+                return None
+            out = bytes(self._rx[:n])
+            self._rx = self._rx[n:]
+            return out
 
     def write(self, data):
-        self.tx.extend(data)
+        with self._lock:
+            self.tx.extend(data)
         return len(data)
 
     def irq(self, handler=None, trigger=0, hard=False):

@@ -167,6 +167,7 @@ PARAMS = (
     ("blackbox_rate_hz",  1000,    0,    8000,   "Hz",          LIVE,   "flight-log rate of the fast topics, capped at loop_hz (replay needs loop_hz); 0 = off"),
     # --- board (rp2 pins and devices)
     ("imu_type",     "mpu6050",    0,      0,    ("mpu6050", "bno055", "lsm9ds1", "icm42688", "auto"), REBOOT, "rp2 board: the IMU to start (auto = probe I2C)"),
+    ("rx_core1",             0,    0,       1,   "",            REBOOT, "rp2 board: parse the serial receiver on the second core (lock-free handover to the loop)"),
 )
 # fmt: on
 

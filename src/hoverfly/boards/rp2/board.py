@@ -18,10 +18,11 @@ values on every line, each tick, until commands resume.
 Faults are a bit field (`faults`, FAULT_*; `fault_names()`), the board's built-in-test
 record: IMU missing or unsupported at boot, IMU bus errors in flight, receiver silent,
 receiver bytes that never make a frame, motor outputs that failed to start or a set-up they
-cannot drive. Each shows as a blink code on the LED (`led_pattern`) and in `status_line()`,
-printed whenever the set changes (not while a USB configuration session is open: it would
-land in the MSP stream). A fault that blinds the flight (no IMU) or breaks the outputs also
-stops the motors here, under the core's own disarm.
+cannot drive, the receiver's loop on core 1 stopped (rx_core1). Each shows as a blink code
+on the LED (`led_pattern`) and in `status_line()`, printed whenever the set changes (not
+while a USB configuration session is open: it would land in the MSP stream). A fault that
+blinds the flight (no IMU) or breaks the outputs also stops the motors here, under the
+core's own disarm.
 
 Ctrl-C: MicroPython turns a 0x03 byte on USB into KeyboardInterrupt, and MSP frames carry
 0x03 bytes (MSP_FC_VERSION is command 3). From the first byte a configurator sends, the board
@@ -48,7 +49,8 @@ FAULT_IMU_BUS = 2  # the IMU stopped answering in flight (consecutive bus errors
 FAULT_RX_SILENT = 4  # not one byte / edge on the receiver input since boot: wrong pin, no power
 FAULT_RX_GARBAGE = 8  # bytes arrive but never a valid frame: wrong protocol, baud or inversion
 FAULT_OUTPUT = 16  # the motor outputs could not be started, or cannot drive this set-up
-FAULT_NAMES = ("imu_absent", "imu_bus_error", "rx_silent", "rx_no_frames", "output_failed")
+FAULT_RX_CORE = 32  # rx_core1: the receiver's loop on core 1 stopped on an error (the link falls silent)
+FAULT_NAMES = ("imu_absent", "imu_bus_error", "rx_silent", "rx_no_frames", "output_failed", "rx_core1_stopped")
 # SAFETY: with any of these standing, write_motors sends stop values whatever the core asks.
 STOP_FAULTS = FAULT_IMU_ABSENT | FAULT_IMU_BUS | FAULT_OUTPUT
 
@@ -71,8 +73,8 @@ def led_pattern(faults, t_ms):
     """Blink code of the lowest fault: n flashes of 100 ms, 200 ms apart, then 1.2 s dark.
 
     1 IMU absent, 2 IMU bus error, 3 receiver silent, 4 receiver bytes without frames,
-    5 outputs failed. Without a fault the flight's own pattern shows (seed 000: blink
-    once a second disarmed, steady armed).
+    5 outputs failed, 6 the receiver loop on core 1 stopped. Without a fault the flight's own
+    pattern shows (seed 000: blink once a second disarmed, steady armed).
     """
     n = 0
     f = faults
@@ -157,8 +159,11 @@ class Rp2Board(Board):
         self._uart = None
         self.rx_ok_type = False  # a supported receiver was set up (the flight's receiver decodes it)
         self.rx_status = "not started"
-        self.rx_bytes = 0
+        # Receiver bytes read, all told, in an array word: with rx_core1 core 1 counts them (a word store,
+        # not an attribute store into the board's table while core 0 may grow it).
+        self.rx_counts = array("i", [0])
         self.rx_edges = 0
+        self._rx_link = None  # rxcore.RxLink while core 1 parses the receiver (start_rx_core1)
         self._edges = array("i", [0] * _EDGE_RING)
         self._edge_head = 0
         self._edge_tail = 0
@@ -379,8 +384,47 @@ class Rp2Board(Board):
         n = u.readinto(buf) if u.any() else 0
         if not n:
             return 0
-        self.rx_bytes += n
+        c = self.rx_counts
+        c[0] = (c[0] + n) & 0x3FFFFFFF
         return n
+
+    def start_rx_core1(self, receiver, start=None):
+        """rx_core1: the serial receiver's UART and codec move to core 1 (core/rxcore.py); the flight's
+        receiver task takes the frames it publishes. `start(fn, args)` starts core 1 (_thread's
+        start_new_thread). False, and nothing changes, for a pin-edge receiver or no receiver."""
+        if self._uart is None:
+            return False
+        from hoverfly.core.rxcore import RxLink
+
+        link = RxLink()
+        core = receiver.use_core1(link)
+        if core is None:
+            return False
+        if start is None:
+            import _thread
+
+            start = _thread.start_new_thread
+        self._rx_link = link
+        start(core.run, (self,))
+        self.rx_status = "%s on %s, parsed on core 1" % (self.rx_type, self._rx_where())
+        return True
+
+    def stop_rx_core1(self):
+        """Core 1's receiver loop returns (main() on its way back to the REPL); True once it has, within
+        50 of its idle rests."""
+        link = self._rx_link
+        if link is None:
+            return True
+        from hoverfly.compat import sleep_us
+        from hoverfly.core.rxcore import IDLE_US, W_RUNNING, W_STOP
+
+        w = link.words
+        w[W_STOP] = 1
+        for _ in range(50):
+            if not w[W_RUNNING]:
+                return True
+            sleep_us(IDLE_US)
+        return False
 
     def read_rx_edges(self, edges):
         """PWM/PPM edges captured by the pin IRQs: (channel*2 + level, t_us) pairs; their count."""
@@ -564,7 +608,7 @@ class Rp2Board(Board):
         flight = self.flight
         receiver = getattr(flight, "receiver", None)
         if self.rx_ok_type and receiver is not None and since_boot_ms > RX_SILENT_MS:
-            got = self.rx_bytes + self.rx_edges
+            got = self.rx_counts[0] + self.rx_edges
             frames = receiver.frames
             f = self.faults & ~(FAULT_RX_SILENT | FAULT_RX_GARBAGE)
             if got == 0:
@@ -572,6 +616,10 @@ class Rp2Board(Board):
             elif frames == 0:
                 f |= FAULT_RX_GARBAGE
             self.faults = f
+        link = self._rx_link
+        if link is not None and link.fault is not None and not self.faults & FAULT_RX_CORE:
+            self.faults |= FAULT_RX_CORE
+            self.rx_status = "%s on %s, core 1 stopped: %r" % (self.rx_type, self._rx_where(), link.fault)
         bit = getattr(flight, "bit", None)
         if bit is not None:
             # The built-in test's storage check follows the store (a good save clears it).

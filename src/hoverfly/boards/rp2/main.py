@@ -4,7 +4,8 @@
 two-slot image in the board's flash file), starts every device and prints one status line,
 builds the Flight, attaches the configuration links (core/links.py: CLI + MSP on USB, the
 maintenance protocol on the HC-05 UART, a 100 Hz task) and runs the pass at `loop_hz` on the
-tick clock. After each pass it collects garbage only when the time left before the next
+tick clock; with `rx_core1` the serial receiver is read and parsed on core 1 (core/rxcore.py).
+After each pass it collects garbage only when the time left before the next
 pass is larger than a collection costs and the free heap is getting low — never
 mid-pass (core/scheduler.py `HeapWatch`: gc.mem_free() walks the whole heap, so it is asked
 only when the allocation rate measured so far says the threshold may be near). It measures
@@ -111,6 +112,7 @@ def main(board=None, params=None, passes=-1, on_pass=None, overrides=()):
         board.stop_motors()
         print(board.status_line())
         print_exception(exc)
+    board.stop_rx_core1()
     board.restore_ctrl_c()  # back at the REPL, Ctrl-C must work again
     print(stats.line())
     return flight, stats
@@ -120,6 +122,9 @@ def run(board, flight, stats, passes=-1, on_pass=None):
     """The loop: one flight pass per period on the tick clock; GC only in the slack."""
     now = board.now_us()
     flight.start(now)
+    # rx_core1: the receiver's codec (made by flight.start's configure) moves to core 1 before the first pass.
+    if flight.params.get("rx_core1") and not board.start_rx_core1(flight.receiver):
+        print("hoverfly: rx_core1 needs a serial receiver (crsf, sbus, ibus): parsed on core 0")
     period = 1000000 // flight.loop_hz
     next_us = ticks_add(now, period)
     mem_free = getattr(gc, "mem_free", None)
