@@ -157,25 +157,42 @@ class HeapWatch:
 
     `mem_free()` (gc.mem_free) walks the heap's whole allocation table: 16-26 µs for a 192 KB heap on
     the MicroPython unix VM here (bench/heap_look.py), so milliseconds on an RP2040, more than a pass.
-    So the watch does not ask every pass: it measures the bytes a pass allocates between two looks and
-    looks again halfway to the threshold (every GC_CHECK_FIRST passes until it knows the rate, at most
-    every GC_CHECK_MAX). The loop calls `due()` every pass; when it is due and the slack allows,
-    `need()` (one walk) says whether to collect now, and after collecting, `collected()`."""
+    So the watch does not ask every pass: it estimates the bytes a pass allocates and looks again halfway
+    to the threshold (every GC_CHECK_FIRST passes until it knows the rate, at most every GC_CHECK_MAX).
+    The loop calls `due()` every pass; when it is due and the slack allows, `need()` (one walk) says
+    whether to collect now, and after collecting, `collected()`.
+
+    The estimate must not run low: the passes do not allocate evenly (a slow task's pass allocates
+    far more than a loop-only pass), so a short stretch between two looks can show a fraction of the
+    real rate, and a look planned on it comes too late: the heap runs out mid-pass (on a board an
+    automatic collection mid-pass, in bench/core_loop.py a MemoryError with the collector off). So the
+    rate is the average over all the passes since the last collection, and never below the average of
+    the whole previous collection cycle; and the next look is never further ahead than the passes seen
+    since the last collection (an extrapolation at most doubles what was measured)."""
 
     def __init__(self, mem_free, fraction=2):
         self.mem_free = mem_free
         self.fraction = fraction
         self.free_min = 0
         self.looks = 0
-        self._free_seen = 0
-        self._since = 0
+        self._free_after = 0  # what the last collection left free
+        self._free_last = 0  # what the last look found free
+        self._passes = 0  # passes since the last collection
+        self._since = 0  # passes since the last look
         self._check_in = GC_CHECK_FIRST
-        self._rate = -1  # bytes a pass between the last two looks; -1 until measured
+        self._rate = -1  # bytes a pass since the last collection; -1 until measured
+        self._cycle_rate = 0  # bytes a pass over the last whole collection cycle (0: none yet)
 
     def collected(self):
         """After a collection: the new threshold, from what it left free."""
+        if self._passes > 0:  # the cycle that ended: what it used by its last look, over its passes
+            used = self._free_after - self._free_last
+            self._cycle_rate = used // self._passes if used > 0 else 0
         free = self.mem_free()
         self.free_min = free // self.fraction
+        self._free_after = free
+        self._passes = 0
+        self._rate = -1
         self._seen(free)
 
     def due(self):
@@ -187,22 +204,29 @@ class HeapWatch:
         """Look at the heap (one walk): True when a collection is due now."""
         free = self.mem_free()
         self.looks += 1
-        if self._since > 0:
-            used = self._free_seen - free
-            self._rate = used // self._since if used > 0 else 0
+        self._passes += self._since
+        self._free_last = free
+        if self._passes > 0:
+            used = self._free_after - free
+            self._rate = used // self._passes if used > 0 else 0
         if free < self.free_min:
             return True
         self._seen(free)
         return False
 
     def _seen(self, free):
-        self._free_seen = free
+        self._free_last = free
         self._since = 0
         rate = self._rate
-        if rate < 0:
+        if rate < self._cycle_rate:
+            rate = self._cycle_rate
+        if rate < 0 or (rate == 0 and self._passes == 0):
             n = GC_CHECK_FIRST
         elif rate == 0:
             n = GC_CHECK_MAX
         else:
             n = (free - self.free_min) // (2 * rate)
+        horizon = self._passes if self._passes > GC_CHECK_FIRST else GC_CHECK_FIRST
+        if n > horizon:
+            n = horizon
         self._check_in = 1 if n < 1 else (GC_CHECK_MAX if n > GC_CHECK_MAX else n)
