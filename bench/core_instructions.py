@@ -22,8 +22,9 @@ import sys
 PASSES = 300
 
 
-def fly(board, f, t, passes):
-    """Step bench/core_loop.py's armed flight `passes` times, collecting garbage as the rp2 main loop does."""
+def fly(board, f, t, passes, core1=None):
+    """Step bench/core_loop.py's armed flight `passes` times, collecting garbage as the rp2 main loop does.
+    core1 (an rxcore.RxCore, bench/core_loop.py rx_core1): polled before every other pass, as core 1 would."""
     from core_loop import GC_FREE_FRACTION
     from hoverfly.compat import collect_garbage, mem_free
     from hoverfly.core.scheduler import HeapWatch
@@ -31,10 +32,12 @@ def fly(board, f, t, passes):
     watch = HeapWatch(mem_free, GC_FREE_FRACTION)
     collect_garbage()
     watch.collected()
-    for _ in range(passes):
+    for k in range(passes):
         if watch.due() and watch.need():
             collect_garbage()
             watch.collected()
+        if core1 is not None and k & 1:
+            core1.poll(board)
         t += 1000
         board.t = t
         f.step(t)

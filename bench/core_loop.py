@@ -14,6 +14,12 @@ words, commander included (Betaflight's gyro/PID loop, its tasks apart).
 
     python3 bench/core_loop.py
     MICROPYPATH=src:.frozen micropython -X heapsize=512k bench/core_loop.py
+    MICROPYPATH=src:.frozen micropython -X heapsize=512k bench/core_loop.py --rx-core1
+
+With --rx-core1 the receiver's UART reads and CRSF parsing are core 1's (`rx_core1`, core/rxcore.py): the
+codec's RxCore polls the bench board before every other pass, outside the timing (on a Pico it runs on the
+other core meanwhile): the board answers every other poll, so a frame still comes every 4th pass, and the
+pass takes it from the handover. The JSON says "rx_core1": true.
 
 (512 KB: the core compiled from source leaves about 60 KB of a 384 KB heap free on the 64-bit VM, too little
 for the flight; a board loads precompiled .mpy, as bench/bundle_loop.py does.)
@@ -151,7 +157,7 @@ def armed_flight():
 GC_FREE_FRACTION = 2  # as boards/rp2/main.py
 
 
-def timed_passes(board, f, t, passes, after_gc=None):
+def timed_passes(board, f, t, passes, after_gc=None, core1=None):
     """Step the flight `passes` times as the rp2 main loop does (boards/rp2/main.run): each pass with
     the GC off, and a collection between passes (untimed, in the loop's slack) once half of what the last
     collection freed is used up, the free heap looked at when core/scheduler.py's HeapWatch says (the same
@@ -159,7 +165,9 @@ def timed_passes(board, f, t, passes, after_gc=None):
     after_gc, a two-slot list, gets the µs and the count of the passes that came straight after a
     collection: those run with the host's caches emptied by the collection's heap walk (an RP2040 has
     no data cache; on this host they are the slowest passes).
-    On CPython nothing is collected and no bytes are counted (compat's GC hooks do nothing)."""
+    On CPython nothing is collected and no bytes are counted (compat's GC hooks do nothing).
+    core1, an rxcore.RxCore: polled before every other pass, untimed and uncounted (core 1's share; the
+    bench board answers every other poll, so a frame every 4th pass, as the receiver task reads it)."""
     us = 0
     nbytes = 0
     gcs = 0
@@ -167,13 +175,15 @@ def timed_passes(board, f, t, passes, after_gc=None):
     collect_garbage()
     watch.collected()
     fresh = True
-    for _ in range(passes):
+    for k in range(passes):
         if watch.due() and watch.need():
             enable_gc()
             collect_garbage()
             watch.collected()
             gcs += 1
             fresh = True
+        if core1 is not None and k & 1:
+            core1.poll(board)
         disable_gc()
         a0 = mem_alloc()
         t0 = ticks_us()
@@ -194,16 +204,23 @@ def timed_passes(board, f, t, passes, after_gc=None):
     return us, nbytes, gcs, t
 
 
-def run(passes):
+def rx_core1(f):
+    """The flight's receiver codec handed to an RxCore (rx_core1), for timed_passes to poll as core 1 would."""
+    from hoverfly.core.rxcore import RxLink
+
+    return f.receiver.use_core1(RxLink())
+
+
+def run(passes, core1=False):
     """(µs a pass, bytes a pass, passes a collection, µs a pass right after a collection)."""
     board, f, t = armed_flight()
     after_gc = [0, 0]
-    us, nbytes, gcs, t = timed_passes(board, f, t, passes, after_gc)
+    us, nbytes, gcs, t = timed_passes(board, f, t, passes, after_gc, rx_core1(f) if core1 else None)
     cold = after_gc[0] / after_gc[1] if after_gc[1] else 0.0
     return us / passes, nbytes / passes, passes / gcs if gcs else 0.0, cold
 
 
-def tasks_us(passes):
+def tasks_us(passes, core1=False):
     """µs a pass spent in the scheduler's slow tasks (Scheduler.run: receiver, arming and failsafe, battery,
     LED), timed around each run() call on a flight of its own (the timing wrapper is not in us_per_pass)."""
     board, f, t = armed_flight()
@@ -217,27 +234,29 @@ def tasks_us(passes):
         spent[0] += ticks_diff(ticks_us(), t0)
 
     sched.run = timed_run
-    timed_passes(board, f, t, passes)
+    timed_passes(board, f, t, passes, None, rx_core1(f) if core1 else None)
     return spent[0] / passes
 
 
 def main():
+    core1 = "--rx-core1" in sys.argv
     passes = 2000 if IS_MICROPYTHON else 20000
     best = None
     tasks = None
     for _ in range(3):
-        r = run(passes)
+        r = run(passes, core1)
         if best is None or r[0] < best[0]:
             best = r
-        u = tasks_us(passes)
+        u = tasks_us(passes, core1)
         if tasks is None or u < tasks:
             tasks = u
     runtime = "micropython" if IS_MICROPYTHON else "cpython"
     # loop_us_per_pass: the pass less its slow tasks, what Betaflight calls the gyro/PID loop (its `tasks`
     # command lists the receiver and the other tasks apart); the board runs both in the same period.
     print('{"runtime": "%s", "us_per_pass": %.2f, "bytes_per_pass": %.1f, "passes": %d, "passes_per_gc": %.1f, '
-          '"us_per_pass_after_gc": %.2f, "tasks_us_per_pass": %.2f, "loop_us_per_pass": %.2f}'
-          % (runtime, best[0], best[1], passes, best[2], best[3], tasks, best[0] - tasks))
+          '"us_per_pass_after_gc": %.2f, "tasks_us_per_pass": %.2f, "loop_us_per_pass": %.2f%s}'
+          % (runtime, best[0], best[1], passes, best[2], best[3], tasks, best[0] - tasks,
+             ', "rx_core1": true' if core1 else ""))
 
 
 if __name__ == "__main__":

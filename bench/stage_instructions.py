@@ -16,6 +16,9 @@ Collections and looks at the free heap (gc_collect, gc_info) are taken out, as i
 bench/core_instructions.py. Figures are per pass: a stage that runs every fourth pass (a new receiver frame)
 shows a quarter of its cost a call.
 
+A name prefixed `core1:` (`core1:step`) counts the stage with the receiver parsed on core 1 (`rx_core1`,
+bench/core_loop.py --rx-core1): the codec's RxCore polls the board before every other pass, outside the count.
+
 Prints one JSON object: {passes, stages: {name: ir_per_pass}}.
 """
 
@@ -44,9 +47,13 @@ def _wrap(obj, name):
 
 def _child(name, passes):
     from core_instructions import fly
-    from core_loop import armed_flight
+    from core_loop import armed_flight, rx_core1
 
     board, f, t = armed_flight()
+    core1 = None
+    if name.startswith("core1:"):
+        name = name[6:]
+        core1 = rx_core1(f)
     parts = name.split(".")
     if parts[0] == "task":
         for task in f.scheduler.tasks:
@@ -57,7 +64,7 @@ def _child(name, passes):
         for p in parts[:-1]:
             obj = getattr(obj, p)
         _wrap(obj, parts[-1])
-    fly(board, f, t, passes)
+    fly(board, f, t, passes, core1)
 
 
 def _count(cmd, env):

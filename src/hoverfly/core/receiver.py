@@ -98,8 +98,7 @@ class Receiver:
     def __init__(self):
         self.provider = ""
         self.decoder = None
-        self.serial = True
-        self._uart_here = True  # a serial codec fed in this task (not pin edges, not core 1's frames)
+        self.serial = True  # a serial codec fed in this task (not pin edges, not core 1's frames)
         self._link = None  # rxcore.LinkView once the codec runs on core 1 (use_core1)
         self._crsf = False
         self._pwm = False
@@ -146,7 +145,7 @@ class Receiver:
             self.provider = provider
             self.pwm_channels = pwm_channels
             self.decoder = make_decoder(provider, pwm_channels)
-            self.serial = self._uart_here = provider in ("crsf", "sbus", "ibus")
+            self.serial = provider in ("crsf", "sbus", "ibus")
             self._crsf = provider == "crsf"
             self._pwm = provider == "pwm"
             self.channels_us = self.decoder.channels_us
@@ -173,7 +172,7 @@ class Receiver:
         self._link = view
         self.decoder = view
         self.channels_us = view.channels_us
-        self._uart_here = False
+        self.serial = False  # update() reads the link, not the UART
         return core
 
     def start(self, now_us):
@@ -189,7 +188,7 @@ class Receiver:
         # words takes it from the heap on every call on MicroPython (docs/pico.md); the rarer paths are
         # methods of their own.
         dec = self.decoder
-        if self._uart_here:
+        if self.serial:
             n = board.read_rx(self._buf)
             new = 0
             if n > 0:  # many polls find nothing, and then the codec's counts cannot have moved either
@@ -263,13 +262,14 @@ class Receiver:
     def _count_frames(self, now_us, new):
         """The link watch's view of `new` decoded frames; returns how many carry the pilot's sticks."""
         dec = self.decoder
-        if self.serial and dec.failsafe:
+        flags = self.serial or self._link is not None  # a serial codec, here or on core 1: SBUS's flags
+        if flags and dec.failsafe:
             # The receiver's failsafe values are not the pilot's sticks: a lost frame.
             self.failsafe_frames += new
             self._win_failsafe += new
             self.rx_failsafe = True
             return 0
-        if self.serial and dec.frame_lost:
+        if flags and dec.frame_lost:
             self.lost_frames += new  # a repeat: still the pilot's last sticks
             self._win_repeat += new
         self.rx_failsafe = False
