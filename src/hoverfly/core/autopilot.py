@@ -149,25 +149,30 @@ class Autopilot:
 
     def on_pilot_frame(self, now_us, arm_switch, armed):
         """One new frame from the pilot's receiver: run the enabling procedure."""
-        ap_on = self.switch_on()
+        # switch_on() inline: this runs at every frame, and with the switch off (the usual frame) it is
+        # most of the work.
+        ch = self.ch
+        chans = self.pilot_channels
+        ap_on = 0 < ch and chans is not None and ch <= len(chans) and self.lo_us <= chans[ch - 1] < self.hi_us
         st = self.state
         if arm_switch:
             self._arm_off_frames = 0
         else:
             self._arm_off_frames += 1
+        if not ap_on:
+            if st != AP_OFF:
+                if st == AP_ENABLED or st == AP_SILENT:
+                    if st == AP_ENABLED and armed and self.has_frame:
+                        # Hard override: the pilot's sticks now, the throttle held at the autopilot's last.
+                        self.latch_norm = self.throttle_norm
+                        self.events.record(now_us, EV_AUTOPILOT_OVERRIDE, OVR_HARD)
+                    self.events.record(now_us, EV_AUTOPILOT_DISABLED, DIS_SWITCH_OFF)
+                self.state = AP_OFF
+                self.has_frame = False
+                self.soft = 0
+            return
         # An arm switch counts as off after disarm_frames frames, as for a disarm (seed 000).
         arm_off = self._arm_off_frames >= self.disarm_frames_needed
-        if not ap_on:
-            if st == AP_ENABLED or st == AP_SILENT:
-                if st == AP_ENABLED and armed and self.has_frame:
-                    # Hard override: the pilot's sticks now, the throttle held at the autopilot's last.
-                    self.latch_norm = self.throttle_norm
-                    self.events.record(now_us, EV_AUTOPILOT_OVERRIDE, OVR_HARD)
-                self.events.record(now_us, EV_AUTOPILOT_DISABLED, DIS_SWITCH_OFF)
-            self.state = AP_OFF
-            self.has_frame = False
-            self.soft = 0
-            return
         if st == AP_OFF:
             self.state = AP_WAIT
             # The order matters: an arm switch already on must be seen off first.
