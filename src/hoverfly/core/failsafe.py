@@ -24,7 +24,9 @@ tipped over, still, throttle low), a loop-rate collapse (overrun storm). Flight 
 each of them.
 """
 
-from hoverfly.compat import const, ticks_diff
+from array import array
+
+from hoverfly.compat import accel_module, const, ticks_diff
 from hoverfly.core.events import (
     DISARM_FAILSAFE,
     DISARM_LANDED,
@@ -228,6 +230,7 @@ class FaultWatch:
     def __init__(self):
         self.crash_us = 1000000  # crash_time_ms; 0 = off
         self.last = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+        self._imu_st = array("i", [0] * 8)  # the viper twin's: the last six float32 words, its two counts
         self.same_checks = 0
         self.sat_checks = 0
         self.imu_fault = FAULT_NONE
@@ -247,10 +250,13 @@ class FaultWatch:
     def reset_imu(self):
         self.same_checks = 0
         self.sat_checks = 0
+        self._imu_st[6] = 0
+        self._imu_st[7] = 0
         self.imu_fault = FAULT_NONE
 
     def check_imu(self, gyro_raw_rad_s, accel_raw_m_s2):
-        """Slow pass with a fresh sample: frozen (bit-identical six values) or saturated."""
+        """Slow pass with a fresh sample: frozen (bit-identical six values) or saturated. On MicroPython
+        the viper twin (accel/faults.py `check_imu`) stands in for this method; `check_imu_python` keeps it."""
         last = self.last
         same = True
         sat = False
@@ -317,3 +323,9 @@ class FaultWatch:
             self.storm_since_us = now_us
             return False
         return ticks_diff(now_us, self.storm_since_us) >= _STORM_US
+
+
+check_imu_python = FaultWatch.check_imu
+_viper = accel_module("faults")
+if _viper is not None:
+    FaultWatch.check_imu = _viper.check_imu

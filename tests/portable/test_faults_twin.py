@@ -1,0 +1,68 @@
+"""FaultWatch.check_imu's twins (core/failsafe.py `check_imu_python`, accel/faults.py `check_imu` on
+MicroPython): the same faults from the same samples, frozen and saturated runs, recoveries and
+limits included. Portable: on CPython the Python twin is the method and the test checks that.
+"""
+
+from array import array
+
+from test_fixedrate import Lcg  # the same deterministic numbers on every port
+
+from hoverfly.compat import IS_MICROPYTHON
+from hoverfly.core import failsafe
+from hoverfly.core.failsafe import FAULT_IMU_FROZEN, FAULT_IMU_SATURATED, FAULT_NONE, FaultWatch
+
+
+def _samples():
+    """(gyro, accel) rad/s and m/s² samples: noise, frozen stretches, saturation at and past the limits."""
+    rnd = Lcg(7)
+    out = []
+    frozen = ([0.01, -0.02, 0.03], [0.1, 0.2, -9.8])
+    for k in range(400):
+        phase = (k // 25) % 8
+        if phase == 1:
+            g, a = frozen  # 25 identical samples: frozen after 10
+        elif phase == 3:
+            g = [34.0, -34.0, 0.0]  # at the limit: not saturated
+            a = [150.0, -150.0, -9.8]
+        elif phase == 4:
+            g = [34.01 if k % 2 else -35.0, 0.0, 0.0]  # past it
+            a = [0.0, 0.0, -9.8]
+        elif phase == 5:
+            g = [0.0, 0.0, 0.0]
+            a = [0.0, -151.0 if k % 3 else float("inf"), -9.8]
+        elif phase == 6:
+            g = [rnd.span(40.0) for _ in range(3)]  # now and then past the limit
+            a = [rnd.span(160.0) for _ in range(3)]
+        else:
+            g = [rnd.span(1.0) for _ in range(3)]
+            a = [rnd.span(1.0), rnd.span(1.0), -9.8 + rnd.span(0.5)]
+        out.append((g, a))
+    return out
+
+
+def test_the_twins_give_the_same_faults():
+    chosen = FaultWatch()
+    python = FaultWatch()
+    g = array("f", [0.0] * 3)
+    a = array("f", [0.0] * 3)
+    seen = set()
+    for k, (gv, av) in enumerate(_samples()):
+        for i in range(3):
+            g[i] = gv[i]
+            a[i] = av[i]
+        f1 = chosen.check_imu(g, a)
+        f2 = failsafe.check_imu_python(python, g, a)
+        assert f1 == f2, (k, gv, av, f1, f2)
+        assert chosen.imu_fault == f1
+        seen.add(f1)
+        if k == 310:
+            chosen.reset_imu()
+            python.reset_imu()
+    assert seen == {FAULT_NONE, FAULT_IMU_FROZEN, FAULT_IMU_SATURATED}
+
+
+def test_micropython_picks_the_viper_twin_and_cpython_the_python_one():
+    if IS_MICROPYTHON:
+        assert FaultWatch.check_imu is not failsafe.check_imu_python
+    else:
+        assert FaultWatch.check_imu is failsafe.check_imu_python
