@@ -33,8 +33,10 @@ def check_imu(self, gyro_raw_rad_s, accel_raw_m_s2) -> int:
     one = 1
     low31 = (one << 31) - 1
     inf = ((one << 8) - 1) << 23  # +inf's bits: a magnitude above them is a NaN
-    g_sat = 0x4208 << 16  # 34.0
-    a_sat = 0x4316 << 16  # 150.0
+    g_sat = 0x4208  # 34.0 is 0x42080000, 150.0 0x43160000: shifted at run time (folded, the constant
+    a_sat = 0x4316  # would be 2**30 or more: an object on a 32-bit port, which viper cannot compare)
+    g_sat <<= 16
+    a_sat <<= 16
     same = 1
     sat = 0
     i = 0
