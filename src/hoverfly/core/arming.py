@@ -144,6 +144,7 @@ class Arming:
         self.armed_at_us = 0
         self.boot_us = 0
         self.gate = None  # an object with pilot_may_arm() (the autopilot): False = the switch may not arm
+        self.on_disarm = None  # called with now_us right after a disarm (Flight works the reasons out again)
         self._switch_was_on = False
         self._need_toggle = True  # until the switch has been seen off once
         self._disarm_frames = 0
@@ -245,3 +246,5 @@ class Arming:
             if reason == DISARM_SWITCH:
                 self._need_toggle = False
             self.events.record(now_us, EV_DISARMED, reason)
+            if self.on_disarm is not None:
+                self.on_disarm(now_us)

@@ -100,6 +100,7 @@ class Flight:
         self.autopilot = Autopilot(self.events)
         self.autopilot.pilot_channels = self.signals.rc_channels_us
         self.arming.gate = self.autopilot  # in autopilot mode the pilot's switch does not arm
+        self.arming.on_disarm = self._flags_on_disarm  # the disable reasons again, the moment it disarms
         self.bit = BuiltInTest()
         self.config_session = 0  # 1 CLI, 2 MSP configurator, 4 maintenance: any set blocks arming
         self._arming_us = 0
@@ -536,25 +537,12 @@ class Flight:
         if self._crash_latched and not rc.arm_switch:
             self._crash_latched = False
         battery_ok = self._battery_ok(s.battery_v)
-        bit = self.bit
-        bit.update(imu_ok, self.rx_ok, not self.overloaded, battery_ok, self.calibration.calibrated)
-        more = session_flags(self.config_session)
-        if self.motor_test.active:
-            more |= 1 << MOTOR_TEST
-        if not battery_ok:
-            more |= 1 << BATTERY_CRITICAL
-        if bit.blocks_arming():
-            more |= 1 << BIT_FAILED
-        if fs.state != IDLE:
-            more |= 1 << FAILSAFE
-        if self.fs_switch:
-            more |= 1 << BOXFAILSAFE
-        if self._crash_latched:
-            more |= 1 << CRASH_DETECTED
-        if ap.switch_on():
-            more |= 1 << AUTOPILOT
-        arming.check(now_us, imu_ok, self.calibration.calibrated, self.rx_ok, throttle_low, s.attitude.cos_tilt,
-                     self.overloaded, more)
+        self.bit.update(imu_ok, self.rx_ok, not self.overloaded, battery_ok, self.calibration.calibrated)
+        if not arming.armed:
+            # As Betaflight: the disable reasons are worked out only while disarmed (armed, nothing reads
+            # them to decide anything), and at once on a disarm (Arming.on_disarm), so an arm request right
+            # after a disarm never meets the reasons of before the arming.
+            self._arming_flags(now_us, throttle_low, battery_ok)
         ap.update(now_us, arming.armed)
         fs.observe(dt_s, s.attitude.q, s.accel_m_s2, s.setpoint.throttle_norm, s.attitude.cos_tilt,
                    arming.armed and self._throttle_was_up)
@@ -565,6 +553,32 @@ class Flight:
                   CAUSE_SWITCH if self.fs_switch else CAUSE_NO_FRAMES, switch_stage2)
         if self.params.changed != self._configured_at and not arming.armed:
             self.configure()
+
+    def _arming_flags(self, now_us, throttle_low, battery_ok):
+        """The arming-disable reasons now (Arming.check, with the reasons of the stages it does not see)."""
+        more = session_flags(self.config_session)
+        if self.motor_test.active:
+            more |= 1 << MOTOR_TEST
+        if not battery_ok:
+            more |= 1 << BATTERY_CRITICAL
+        if self.bit.blocks_arming():
+            more |= 1 << BIT_FAILED
+        if self.failsafe.state != IDLE:
+            more |= 1 << FAILSAFE
+        if self.fs_switch:
+            more |= 1 << BOXFAILSAFE
+        if self._crash_latched:
+            more |= 1 << CRASH_DETECTED
+        if self.autopilot.switch_on():
+            more |= 1 << AUTOPILOT
+        self.arming.check(now_us, self.imu_ok, self.calibration.calibrated, self.rx_ok, throttle_low,
+                          self.signals.attitude.cos_tilt, self.overloaded, more)
+
+    def _flags_on_disarm(self, now_us):
+        """Arming.on_disarm: the reasons from the state at the disarm (the 100 Hz task's are from before it)."""
+        ap = self.autopilot
+        throttle_low = ap.throttle_low() if ap.state == AP_ENABLED else self.rc.throttle_low()
+        self._arming_flags(now_us, throttle_low, self._battery_ok(self.signals.battery_v))
 
     def _battery_ok(self, battery_v):
         """False below vbat_min_cell per cell; True when off or not measured."""
