@@ -331,6 +331,7 @@ def test_rc_new_frame_mode_ranges_equal_in_range():
         rc._angle = ((k * 5) % 17, 1200, 2100)
         rc._airmode = ((k * 3) % 19, 1500, 1500 + k)
         rc._fs_switch = ((k * 11) % 18, 1100 + k, 1800)
+        rc.frame_table()
         rc.new_frame(channels)
         a, h, g, m, fs = rc._arm, rc._horizon, rc._angle, rc._airmode, rc._fs_switch
         assert rc.fs_switch_in(channels) is _in_range(channels, fs[0], fs[1], fs[2])

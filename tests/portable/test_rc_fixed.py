@@ -37,7 +37,7 @@ def _frame(n):
     pitch = 1000 if phase == 2 else 1500 + ((n * 3) % 600) - 300
     yaw = 1500 + (n % 900) - 450 if phase != 3 else 1500
     thr = 1000 + (n * 5) % 1100
-    return [roll, pitch, thr, yaw, 1000, 1500] + [1500] * 10
+    return array("H", [roll, pitch, thr, yaw, 1000, 1500] + [1500] * 10)  # as the Flight's rc_channels_us
 
 
 def _bits32(a, n):
@@ -93,12 +93,12 @@ def test_the_fixed_stage_agrees_with_the_float_stage():
 def test_a_centred_stick_comes_back_to_exactly_zero():
     rc = _rc("fixed")
     sp = Setpoint()
-    ch = [1900, 1100, 1500, 1800] + [1500] * 12
+    ch = array("H", [1900, 1100, 1500, 1800] + [1500] * 12)
     for n in range(400):
         if n % 4 == 0:
             rc.new_frame(ch)
         rc.update(sp)
-    ch = [1500, 1500, 1000, 1500] + [1500] * 12
+    ch = array("H", [1500, 1500, 1000, 1500] + [1500] * 12)
     for n in range(600):
         if n % 4 == 0:
             rc.new_frame(ch)
@@ -113,7 +113,7 @@ def test_a_full_stick_gives_the_full_rate_and_angle():
     sp = Setpoint()
     for n in range(800):
         if n % 4 == 0:
-            rc.new_frame([2011, 988, 2011, 1500] + [1500] * 12)
+            rc.new_frame(array("H", [2011, 988, 2011, 1500] + [1500] * 12))
         rc.update(sp)
     assert sp.stick_norm[0] == 1.0 and sp.stick_norm[1] == 1.0  # pitch stick back: nose up
     assert abs(sp.rate_rad_s[0] - rc.rates[0].max_rate_rad_s()) < 2e-5
@@ -126,7 +126,7 @@ def test_the_setpoint_is_rewritten_every_pass():
     rc = _rc("fixed")
     sp = Setpoint()
     ref = Setpoint()
-    rc.new_frame([1700, 1400, 1600, 1450] + [1500] * 12)
+    rc.new_frame(array("H", [1700, 1400, 1600, 1450] + [1500] * 12))
     for _ in range(600):
         rc.update(sp)
     rc.update(ref)
@@ -147,7 +147,7 @@ def test_switching_hands_the_smoothing_state_over_both_ways():
     rc = RcInput()
     rc.configure(p, 1000)
     sp = Setpoint()
-    rc.new_frame([1800, 1500, 1500, 1500] + [1500] * 12)
+    rc.new_frame(array("H", [1800, 1500, 1500, 1500] + [1500] * 12))
     for _ in range(10):
         rc.update(sp)
     mid = sp.stick_norm[0]
@@ -172,11 +172,11 @@ def test_switching_hands_the_smoothing_state_over_both_ways():
 def test_a_fixed_update_allocates_only_the_floats_of_a_moving_angle_or_throttle():
     rc = _rc("fixed")
     sp = Setpoint()
-    rc.new_frame([1600, 1500, 1400, 1500] + [1500] * 12)
+    rc.new_frame(array("H", [1600, 1500, 1400, 1500] + [1500] * 12))
     for _ in range(600):  # settled: nothing moves
         rc.update(sp)
     assert heap_bytes(lambda: rc.update(sp), 50) == 0
-    rc.new_frame([1500, 1500, 1400, 1700] + [1500] * 12)  # roll and yaw move: the roll angle is remade
+    rc.new_frame(array("H", [1500, 1500, 1400, 1700] + [1500] * 12))  # roll and yaw move: the roll angle is remade
     one = heap_bytes(lambda: rc.update(sp), 1)
     assert one <= 32  # one float (a GC block on the 64-bit VM), the stick and rate arrays written in place
 
@@ -219,3 +219,49 @@ def test_the_viper_twin_gives_the_python_twins_bits():
             assert list(st_p) == list(st_v), (config, n)
             assert _bits32(out[0], 3) == _bits32(out[2], 3), (config, n)
             assert _bits32(out[1], 3) == _bits32(out[3], 3), (config, n)
+
+
+def test_rc_frame_twins_agree():
+    # new_frame's integer part (core/rc.py rc_frame; accel/rc.py's viper twin on MicroPython): the same
+    # moved-stick mask, switch bits, last µs and Q20 inputs on random tables and frames
+    from hoverfly.core.rc import FC_SIZE
+
+    if not IS_MICROPYTHON:
+        assert rcmod._rc_frame is rcmod.rc_frame
+    twin = rc_viper.rc_frame if IS_MICROPYTHON else rcmod.rc_frame
+    rnd = Lcg(5)
+
+    def pick(n):
+        return int(rnd.unit() * n)
+
+    seen = 0
+    for config in range(60):
+        fco = array("i", [0] * FC_SIZE)
+        order = [0, 1, 2, 3]
+        for i in range(3, 0, -1):
+            j = pick(i + 1)
+            order[i], order[j] = order[j], order[i]
+        for i in range(4):
+            fco[i] = order[i]
+        fco[4] = pick(60)
+        fco[5] = pick(60)
+        fco[6] = config % 2
+        for k in range(7, 19, 3):
+            fco[k] = pick(20)  # 0 = none, 17..19: beyond the frame
+            fco[k + 1] = 900 + pick(800)
+            fco[k + 2] = fco[k + 1] + pick(900)
+        last_p = array("i", [-1, -1, -1, -1])
+        last_v = array("i", last_p)
+        st_p = array("i", [0] * ST_SIZE)
+        st_v = array("i", [0] * ST_SIZE)
+        ch = array("H", [1500] * 16)
+        for n in range(40):
+            for i in range(16):
+                if pick(3) == 0:
+                    ch[i] = (880, 1000, 1500, 1505, 1495, 2000, 2120, 1000 + pick(1001))[pick(8)]
+            rp = rcmod.rc_frame(fco, last_p, ch, st_p)
+            rv = twin(fco, last_v, ch, st_v)
+            assert rp == rv, (config, n, rp, rv)
+            assert list(last_p) == list(last_v) and list(st_p) == list(st_v), (config, n)
+            seen |= rp
+    assert seen == 255  # every stick moved and every switch read on somewhere

@@ -4,6 +4,8 @@ Given a parameter set and one receiver frame (µs per channel), the boxes read a
 mode ranges: channel (1-based, 0 = none) and min_us <= µs < max_us.
 """
 
+from array import array
+
 from hoverfly.core.control import MODE_ACRO, MODE_ANGLE, MODE_HORIZON
 from hoverfly.core.params import Params
 from hoverfly.core.rc import RcInput
@@ -24,7 +26,7 @@ def _frame(**aux):
     ch = [1500, 1500, 1000, 1500] + [1000] * 12
     for key in aux:
         ch[int(key[2:]) - 1] = aux[key]
-    return ch
+    return array("H", ch)  # as the Flight's rc_channels_us
 
 
 def test_airmode_box_with_no_channel_leaves_the_parameter_to_decide():

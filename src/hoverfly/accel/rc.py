@@ -1,4 +1,4 @@
-"""Viper twin of core/rc.py's `rc_pass` (MicroPython only; chosen at import by core/rc.py).
+"""Viper twins of core/rc.py's `rc_pass` and `rc_frame` (MicroPython only; chosen at import by core/rc.py).
 
 The same integer arithmetic, step for step, as the Python `rc_pass`, which stays the reference and
 the fallback; tests/portable/test_rc_fixed.py runs both on the same inputs and wants every output
@@ -119,3 +119,59 @@ def rc_pass(co_a, st_a, stick_a, rate_a) -> int:
                 j += 1
         i += 1
     return changed
+
+
+@micropython.viper
+def rc_frame(fco_a, last_a, channels_a, st_a) -> int:
+    """core/rc.py `rc_frame`: the sticks that moved (their µs into last), in fixed point their Q20 into
+    st (_stick_q's arithmetic, the division included), and the mode switches in range. Layout FC_* of
+    core/rc.py, repeated here as literals. µs values are below 2**16 and Q20 values within +-2**20; the
+    one product, a * 2**21 with a < 500, stays below 2**30."""
+    fco = ptr32(fco_a)
+    last = ptr32(last_a)
+    ch16 = ptr16(channels_a)
+    st = ptr32(st_a)
+    r = 0
+    i = 0
+    while i < 4:
+        us = int(ch16[fco[i]])  # FC_CH + i
+        if us != last[i]:  # -1 (none yet) loads as 2**32 - 1 on a 64-bit port: never a µs value either
+            last[i] = us
+            r |= 1 << i
+            if fco[6] and i < 3:  # FC_FIXED
+                db = fco[4]  # FC_DB
+                if i == 2:
+                    db = fco[5]  # FC_YAW_DB
+                d = us - 1500
+                q = 0
+                if d > db or d < -db:
+                    if d > 0:
+                        d -= db
+                    else:
+                        d += db
+                    den = 500 - db
+                    a = d
+                    if d < 0:
+                        a = -d
+                    if a >= den:
+                        q = 0x100000  # 1.0 in Q20
+                    else:
+                        q = (a * 0x200000 + den) // (2 * den)
+                    if d < 0:
+                        q = -q
+                if i == 1:
+                    q = -q  # pitch: stick forward is nose down (FRD)
+                st[i] = q  # S_X + i
+        i += 1
+    n = int(len(channels_a))
+    bit = 16  # RF_ARM, then HORIZON, ANGLE, AIRMODE
+    k = 7  # FC_SW
+    while k < 19:  # FC_SIZE
+        ch = fco[k]
+        if ch > 0 and ch <= n:
+            v = int(ch16[ch - 1])
+            if v >= fco[k + 1] and v < fco[k + 2]:
+                r |= bit
+        bit <<= 1
+        k += 3
+    return r

@@ -116,6 +116,50 @@ def rc_pass(co, st, stick, rate):
 
 _rc_pass = _viper.rc_pass if HAS_ACCEL else rc_pass
 
+# new_frame's table (RcInput._fco, from configure): the sticks' channels (0-based), their deadbands,
+# whether the fixed-point stage takes the sticks, and the ARM, HORIZON, ANGLE and AIRMODE ranges
+# (channel 1-based, 0 = none; lo <= µs < hi).
+FC_CH = const(0)  # roll, pitch, yaw, throttle
+FC_DB = const(4)
+FC_YAW_DB = const(5)
+FC_FIXED = const(6)
+FC_SW = const(7)  # three words a switch
+FC_SIZE = const(19)
+# rc_frame's answer: bits 0..3 the sticks that moved (roll, pitch, yaw, throttle), then the switches in range
+RF_ARM = const(16)
+RF_HORIZON = const(32)
+RF_ANGLE = const(64)
+RF_AIRMODE = const(128)
+
+
+def rc_frame(fco, last, channels_us, st):
+    """new_frame's integer part, in one call: which sticks moved since the last frame (their µs into `last`),
+    in fixed point their Q20 into st[S_X..] (roll, pitch, yaw: _stick_q, pitch negated: stick forward is
+    nose down in FRD; the throttle is left to RcInput._throttle), and which mode switches are in range.
+    The viper twin accel/rc.py `rc_frame` stands in for it on MicroPython (test_rc_modes checks both)."""
+    r = 0
+    for i in range(4):
+        us = channels_us[fco[FC_CH + i]]
+        if us != last[i]:
+            last[i] = us
+            r |= 1 << i
+            if fco[FC_FIXED] and i < 3:
+                q = _stick_q(us, fco[FC_YAW_DB] if i == 2 else fco[FC_DB])
+                st[S_X + i] = -q if i == 1 else q
+    n = len(channels_us)
+    bit = RF_ARM
+    k = FC_SW
+    while k < FC_SIZE:
+        ch = fco[k]
+        if 0 < ch <= n and fco[k + 1] <= channels_us[ch - 1] < fco[k + 2]:
+            r |= bit
+        bit <<= 1
+        k += 3
+    return r
+
+
+_rc_frame = _viper.rc_frame if HAS_ACCEL else rc_frame
+
 
 def _q(x, scale, lo, hi):
     """A float in fixed point (x * scale), rounded, clamped to lo..hi; NaN as 0."""
@@ -220,8 +264,9 @@ class RcInput:
         self._pitch_angle_rad = 0.0
         self._throttle_norm = 0.0
         # new_frame: the µs each stick (roll, pitch, yaw, throttle) read last; a stick that did not move
-        # keeps its float (-1: none yet, or the configuration changed)
+        # keeps its float (-1: none yet, or the configuration changed). Its table: FC_* above.
         self._last_us = array("i", [-1, -1, -1, -1])
+        self._fco = array("i", [0] * FC_SIZE)
 
     def configure(self, params, loop_hz):
         self._set_fixed(False)  # the float filters hold the state while they are configured
@@ -261,7 +306,26 @@ class RcInput:
         self._fs_switch = (params.get("fs_switch_ch"), params.get("fs_switch_min_us"), params.get("fs_switch_max_us"))
         math_kind = params.get("pid_math")
         self._set_fixed(kind == "pt2" and (math_kind == "fixed" or (math_kind == "auto" and HAS_ACCEL)))
+        self.frame_table()
         self._forget()
+
+    def frame_table(self):
+        """new_frame's table (FC_*) from the channel map, the deadbands, the stage and the mode ranges
+        (configure calls it; so must anything that changes those afterwards)."""
+        t = self._fco
+        t[FC_CH] = self.roll_ch
+        t[FC_CH + 1] = self.pitch_ch
+        t[FC_CH + 2] = self.yaw_ch
+        t[FC_CH + 3] = self.throttle_ch
+        t[FC_DB] = self.deadband_us
+        t[FC_YAW_DB] = self.yaw_deadband_us
+        t[FC_FIXED] = 1 if self.fixed else 0
+        k = FC_SW
+        for sw in (self._arm, self._horizon, self._angle, self._airmode):
+            t[k] = sw[0]
+            t[k + 1] = sw[1]
+            t[k + 2] = sw[2]
+            k += 3
 
     def _forget(self):
         """Drop update()'s and new_frame()'s reused results (the filters, curves, limits or deadbands changed)."""
@@ -310,10 +374,11 @@ class RcInput:
         sets it from arm_ch/arm_min_us/arm_max_us; an arm source with its own rule (seed 001:
         above 1500 µs) sets it after that."""
         self._arm = (ch, min_us, max_us)
+        self.frame_table()
 
     def fs_switch_in(self, channels_us):
         """True when the failsafe switch (fs_switch_ch, 0 = none) is in range in this raw frame."""
-        ch, lo, hi = self._fs_switch  # _in_range() inline, as in _modes: a call a frame fewer
+        ch, lo, hi = self._fs_switch  # _in_range() inline: a call a frame fewer
         return 0 < ch <= len(channels_us) and lo <= channels_us[ch - 1] < hi
 
     def _stick(self, us, deadband):
@@ -333,47 +398,37 @@ class RcInput:
 
     def new_frame(self, channels_us):
         """Take one receiver frame (µs per channel)."""
-        # Few locals here and in the helpers (see update); a stick whose µs did not change keeps its value.
-        last = self._last_us
-        if (channels_us[self.roll_ch] != last[0] or channels_us[self.pitch_ch] != last[1]
-                or channels_us[self.yaw_ch] != last[2] or channels_us[self.throttle_ch] != last[3]):
-            self._sticks(channels_us)
-        self._modes(channels_us)
+        # One call (rc_frame, viper on MicroPython) for the sticks that moved, their fixed-point inputs and
+        # the mode switches; the floats here only for the sticks that moved.
+        r = _rc_frame(self._fco, self._last_us, channels_us, self._st)
+        if r & 15:
+            self._sticks(channels_us, r)
+        self.arm_switch = (r & RF_ARM) != 0
+        self.mode = MODE_HORIZON if r & RF_HORIZON else (MODE_ANGLE if r & RF_ANGLE else MODE_ACRO)
+        self.airmode_switch = (r & RF_AIRMODE) != 0
         self.frames += 1
 
-    def _sticks(self, channels_us):
-        """The sticks of a frame in which one moved: floats (and the fixed stage's inputs) for those that did."""
-        last = self._last_us
-        us = channels_us[self.roll_ch]
-        if us != last[0]:
-            last[0] = us
-            self._axis(0, us, self.deadband_us)
-        us = channels_us[self.pitch_ch]
-        if us != last[1]:
-            last[1] = us
-            self._axis(1, us, self.deadband_us)
-        us = channels_us[self.yaw_ch]
-        if us != last[2]:
-            last[2] = us
-            self._axis(2, us, self.yaw_deadband_us)
-        us = channels_us[self.throttle_ch]
-        if us != last[3]:
-            last[3] = us
-            self._throttle(us)
-
-    def _axis(self, i, us, deadband):
+    def _sticks(self, channels_us, r):
+        """The floats of the sticks that moved (r: rc_frame's mask). In fixed point from the Q20 rc_frame
+        made (within 2**-21 of _stick's; one float object a moving stick); else _stick's."""
+        raw = self.stick_raw
         if self.fixed:
-            # The fixed stage's Q20 input, and the float from it (within 2**-21 of _stick's): one float
-            # object and one call a moving stick, not _stick's call and division as well.
-            q = _stick_q(us, deadband)
-            if i == 1:
-                q = -q  # pitch stick forward (more µs) means nose down: negative pitch in FRD
-            self._st[S_X + i] = q
-            self.stick_raw[i] = q * _INV20
-        elif i == 1:
-            self.stick_raw[1] = -self._stick(us, deadband)
+            st = self._st
+            if r & 1:
+                raw[0] = st[S_X] * _INV20
+            if r & 2:
+                raw[1] = st[S_X + 1] * _INV20
+            if r & 4:
+                raw[2] = st[S_X + 2] * _INV20
         else:
-            self.stick_raw[i] = self._stick(us, deadband)
+            if r & 1:
+                raw[0] = self._stick(channels_us[self.roll_ch], self.deadband_us)
+            if r & 2:
+                raw[1] = -self._stick(channels_us[self.pitch_ch], self.deadband_us)  # forward: nose down (FRD)
+            if r & 4:
+                raw[2] = self._stick(channels_us[self.yaw_ch], self.yaw_deadband_us)
+        if r & 8:
+            self._throttle(channels_us[self.throttle_ch])
 
     def _throttle(self, t):
         self.throttle_us = t
@@ -385,20 +440,6 @@ class RcInput:
         self.throttle_raw = 0.0 if thr < 0.0 else (1.0 if thr > 1.0 else thr)
         if self.fixed:
             self._st[S_X + 3] = _throttle_q(t)
-
-    def _modes(self, channels_us):
-        """The mode ranges of a frame: _in_range() inline (four calls a frame otherwise)."""
-        n = len(channels_us)
-        ch, lo, hi = self._arm
-        self.arm_switch = 0 < ch <= n and lo <= channels_us[ch - 1] < hi
-        ch, lo, hi = self._horizon
-        if 0 < ch <= n and lo <= channels_us[ch - 1] < hi:
-            self.mode = MODE_HORIZON
-        else:
-            ch, lo, hi = self._angle
-            self.mode = MODE_ANGLE if 0 < ch <= n and lo <= channels_us[ch - 1] < hi else MODE_ACRO
-        ch, lo, hi = self._airmode
-        self.airmode_switch = 0 < ch <= n and lo <= channels_us[ch - 1] < hi
 
     def throttle_low(self):
         return self.throttle_us < self.min_check_us
