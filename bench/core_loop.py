@@ -35,9 +35,9 @@ if sys.implementation.name == "micropython":
     for _name in ("accel.mpu6050", "drivers.orientation", "drivers.imu", "drivers.mpu6050", "core.params",
                   "core.events", "core.filters", "accel.imufilter", "core.fixedimu", "core.control", "core.estimator",
                   "accel.att", "core.fixedatt", "core.mixer", "core.pid", "accel.rate", "core.fixedrate",
-                  "core.arming", "accel.faults", "core.failsafe", "accel.rc", "core.rc", "core.scheduler",
-                  "core.signals", "accel.output", "accel.dshot", "core.output", "core.receiver", "core.logger",
-                  "core.flight"):
+                  "core.arming", "accel.faults", "core.failsafe", "accel.rc", "core.rc", "accel.sched",
+                  "core.scheduler", "core.signals", "accel.output", "accel.dshot", "core.output", "core.receiver",
+                  "core.logger", "core.flight"):
         gc.collect()
         try:
             __import__("hoverfly." + _name)

@@ -1,7 +1,7 @@
 """Scheduler: tasks at their rates, the fastest first, the slow ones only looked at when due and kept off the
 fastest task's passes."""
 
-from hoverfly.compat import TICKS_MAX, ticks_add, ticks_diff
+from hoverfly.compat import IS_MICROPYTHON, TICKS_MAX, ticks_add, ticks_diff
 from hoverfly.core.scheduler import Scheduler
 
 
@@ -203,3 +203,28 @@ def test_pass_statistics():
     assert s.passes == 4
     assert s.cycle_us == 1000 and s.cycle_max_us == 1200
     assert s.jitter_max_us == 200 and s.jitter_sum_us == 300
+
+
+def test_pass_stats_twins_agree_and_wrap_and_clamp():
+    # Flight.step's pass_stats (accel/sched.py's viper twin on MicroPython): the same words as the Python
+    # twin, the counts wrapping at COUNT_MASK, a stall longer than that clamped, negative cycles kept
+    from array import array
+
+    from hoverfly.core import scheduler as sm
+
+    if not IS_MICROPYTHON:
+        assert sm.fast_pass_stats is sm.pass_stats
+    a = array("i", [0] * 6)
+    b = array("i", [0] * 6)
+    a[sm.PS_PERIOD] = b[sm.PS_PERIOD] = 1000
+    a[sm.PS_PASSES] = b[sm.PS_PASSES] = sm.COUNT_MASK - 2
+    a[sm.PS_JITTER_SUM] = b[sm.PS_JITTER_SUM] = sm.COUNT_MASK - 500
+    cycles = [1000, 1250, 990, -40, 0, 7000, sm.COUNT_MASK + 12345, 1000, 999, 1001]
+    cycles += [1000 + (k * 37) % 400 for k in range(50)]
+    for c in cycles:
+        sm.pass_stats(a, c)
+        sm.fast_pass_stats(b, c)
+        assert list(a) == list(b), c
+    assert a[sm.PS_PASSES] == len(cycles) - 3  # wrapped
+    assert a[sm.PS_CYCLE_MAX] == sm.COUNT_MASK  # the stall, clamped
+    assert 0 <= a[sm.PS_JITTER_SUM] < sm.COUNT_MASK

@@ -309,7 +309,7 @@ class FaultWatch:
             return False
         span_us = ticks_diff(now_us, self._win_us)
         if span_us >= 100000:
-            done = passes - self._win_passes
+            done = (passes - self._win_passes) & 0x3FFFFFFF  # the scheduler's count wraps there
             expected = span_us // self._period_us
             over = overruns - self._win_overruns
             self.overloaded = done * 100 < expected * _LOAD_RATE_PCT or over * 2 > done

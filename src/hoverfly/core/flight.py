@@ -66,6 +66,7 @@ from hoverfly.core.params import FS_SWITCH_MODES, Params
 from hoverfly.core.rc import RcInput
 from hoverfly.core.receiver import Receiver
 from hoverfly.core.scheduler import Scheduler
+from hoverfly.core.scheduler import fast_pass_stats as _pass_stats
 from hoverfly.core.signals import Signals
 
 
@@ -108,6 +109,7 @@ class Flight:
         self._vbat_min_cell_v = 3.3
         self.battery_cells = 0  # detected from the first voltage read (4.3 V per cell at most)
         self.scheduler = Scheduler()
+        self._pass_words = self.scheduler.stats
         self.loop_hz = 1000
         self.motor_count = 4
         self.idle = 0.055
@@ -233,7 +235,7 @@ class Flight:
         dt_us = ticks_diff(now_us, self._last_us)
         self.pass_dt_us = dt_us
         self._last_us = now_us
-        self.scheduler.pass_started(now_us, dt_us)
+        _pass_stats(self._pass_words, dt_us)  # the scheduler's pass statistics (Scheduler.pass_started's work)
         self._sense(now_us, dt_us)  # 1. IMU and filters, 2. estimator
         # 3. commander: the pilot's sticks, or the failsafe's
         sp = self.signals.setpoint

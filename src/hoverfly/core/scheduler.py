@@ -14,10 +14,43 @@ The scheduler also keeps the pass statistics: cycle time, jitter against the nom
 period, and overruns. `HeapWatch` tells a board's loop when to collect garbage in its slack.
 """
 
-from hoverfly.compat import TICKS_HALF, ticks_add, ticks_diff
+from array import array
+
+from hoverfly.compat import TICKS_HALF, accel_module, const, ticks_add, ticks_diff
 
 # How far ahead the slow tasks' time lies when there are none: within ticks_diff's range.
 _FAR_US = TICKS_HALF - 1
+
+# Scheduler.stats, the pass statistics in one array: the pass's own bookkeeping is then one call of
+# pass_stats (on MicroPython its viper twin, accel/sched.py: no bytecode frame, no attribute look-ups).
+PS_PASSES = const(0)  # passes, all told (wraps at COUNT_MASK)
+PS_CYCLE = const(1)  # the last pass's cycle time, µs
+PS_CYCLE_MAX = const(2)
+PS_JITTER_MAX = const(3)  # |cycle - period|, µs
+PS_JITTER_SUM = const(4)  # (wraps at COUNT_MASK)
+PS_PERIOD = const(5)  # the nominal period, µs
+_PS_SIZE = const(6)
+COUNT_MASK = const(0x3FFFFFFF)  # small ints on a 32-bit port; a cycle time is clamped to it
+
+
+def pass_stats(ps, cycle_us):
+    """Record one pass, cycle_us after the last one, into ps (Scheduler.stats)."""
+    if cycle_us > COUNT_MASK:
+        cycle_us = COUNT_MASK
+    ps[PS_PASSES] = (ps[PS_PASSES] + 1) & COUNT_MASK
+    ps[PS_CYCLE] = cycle_us
+    if cycle_us > ps[PS_CYCLE_MAX]:
+        ps[PS_CYCLE_MAX] = cycle_us
+    j = cycle_us - ps[PS_PERIOD]
+    if j < 0:
+        j = -j
+    ps[PS_JITTER_SUM] = (ps[PS_JITTER_SUM] + j) & COUNT_MASK
+    if j > ps[PS_JITTER_MAX]:
+        ps[PS_JITTER_MAX] = j
+
+
+_viper = accel_module("sched")
+fast_pass_stats = _viper.pass_stats if _viper is not None else pass_stats
 
 
 class Task:
@@ -34,11 +67,8 @@ class Scheduler:
     def __init__(self):
         self.tasks = []
         self.period_us = 1000
-        self.passes = 0
-        self.cycle_us = 0
-        self.cycle_max_us = 0
-        self.jitter_max_us = 0
-        self.jitter_sum_us = 0
+        self.stats = array("i", [0] * _PS_SIZE)  # PS_*: passes, cycle time, jitter (properties below)
+        self.stats[PS_PERIOD] = 1000
         self.overruns = 0
         self._last_us = 0
         self.next_due_us = 0  # the earliest task's next time: run() has nothing to do before it
@@ -64,8 +94,30 @@ class Scheduler:
             self.next_due_us = self._last_us
         return t
 
+    # The pass statistics, read from `stats`.
+    @property
+    def passes(self):
+        return self.stats[PS_PASSES]
+
+    @property
+    def cycle_us(self):
+        return self.stats[PS_CYCLE]
+
+    @property
+    def cycle_max_us(self):
+        return self.stats[PS_CYCLE_MAX]
+
+    @property
+    def jitter_max_us(self):
+        return self.stats[PS_JITTER_MAX]
+
+    @property
+    def jitter_sum_us(self):
+        return self.stats[PS_JITTER_SUM]
+
     def start(self, now_us, loop_hz):
         self.period_us = 1000000 // loop_hz
+        self.stats[PS_PERIOD] = self.period_us
         self._last_us = now_us
         for t in self.tasks:
             t.next_us = now_us
@@ -74,18 +126,10 @@ class Scheduler:
         self._started = True
 
     def pass_started(self, now_us, cycle_us):
-        """Record the pass starting now, cycle_us after the last one (Flight.step has it as its dt)."""
+        """Record the pass starting now, cycle_us after the last one. (Flight.step calls fast_pass_stats on
+        `stats` itself, with its dt.)"""
         self._last_us = now_us
-        self.passes += 1
-        self.cycle_us = cycle_us
-        if cycle_us > self.cycle_max_us:
-            self.cycle_max_us = cycle_us
-        j = cycle_us - self.period_us
-        if j < 0:
-            j = -j
-        self.jitter_sum_us += j
-        if j > self.jitter_max_us:
-            self.jitter_max_us = j
+        fast_pass_stats(self.stats, cycle_us)
 
     def pass_took(self, duration_us):
         if duration_us > self.period_us:
@@ -98,6 +142,7 @@ class Scheduler:
         # that one stay within 11 words (a bigger one comes from the heap at every call on MicroPython).
         if ticks_diff(now_us, self.next_due_us) < 0:
             return
+        self._last_us = now_us  # a task added from now on is due at once (add)
         fast = self._fast
         if fast is None:
             self.next_due_us = ticks_add(now_us, _FAR_US)
@@ -141,9 +186,10 @@ class Scheduler:
         t.next_us = nxt
 
     def stats_reset(self):
-        self.cycle_max_us = 0
-        self.jitter_max_us = 0
-        self.jitter_sum_us = 0
+        ps = self.stats
+        ps[PS_CYCLE_MAX] = 0
+        ps[PS_JITTER_MAX] = 0
+        ps[PS_JITTER_SUM] = 0
 
 
 # Passes between two looks at the free heap: until an allocation rate has been measured, and at most.
