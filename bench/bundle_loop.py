@@ -21,7 +21,8 @@ against the bytecode bundle and what it adds to an RP2040's bundle: the table NA
 
 `--profile`: where each bundle's pass goes, by VM function: {bytecode: {ir_per_pass, functions: [[name,
 instructions a pass, % of the pass], ...]}, native: {...}}, the 15 largest (callgrind_annotate, each function's
-own instructions, a run of 3 * PASSES passes less one of PASSES, as bench/core_instructions.py counts).
+own instructions, a run of 3 * PASSES passes less one of PASSES, as bench/core_instructions.py counts; the
+looks at the free heap, gc_info, left out as it leaves them out).
 """
 
 import json
@@ -84,7 +85,10 @@ def _by_function(cmd, env):
 def _profile(mp, lib, top):
     """The pass's instructions by VM function (machine code that callgrind cannot name shows as its address)."""
     runs = [_by_function(_child(mp) + ["--child", str(n)], _env(lib)) for n in (3 * PASSES, PASSES)]
-    per = {k: (runs[0].get(k, 0) - runs[1].get(k, 0)) / (2 * PASSES) for k in set(runs[0]) | set(runs[1])}
+    # gc_info is the looks at the free heap (HeapWatch's mem_free walks, between passes): out, as
+    # bench/core_instructions.py takes them out.
+    per = {k: (runs[0].get(k, 0) - runs[1].get(k, 0)) / (2 * PASSES) for k in set(runs[0]) | set(runs[1])
+           if k != "gc_info"}
     total = sum(per.values())
     rows = sorted(per.items(), key=lambda kv: -kv[1])[:top]
     return {"ir_per_pass": round(total), "functions": [[k, round(v), round(100.0 * v / total, 1)] for k, v in rows]}

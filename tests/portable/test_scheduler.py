@@ -200,9 +200,12 @@ def test_pass_statistics():
     s.start(0, 1000)
     for t, cycle in ((1000, 1000), (2200, 1200), (3100, 900), (4100, 1000)):
         s.pass_started(t, cycle)
-    assert s.passes == 4
-    assert s.cycle_us == 1000 and s.cycle_max_us == 1200
-    assert s.jitter_max_us == 200 and s.jitter_sum_us == 300
+    from hoverfly.core.scheduler import PS_CYCLE, PS_CYCLE_MAX, PS_JITTER_MAX, PS_JITTER_SUM, PS_PASSES
+
+    ps = s.stats
+    assert ps[PS_PASSES] == 4
+    assert ps[PS_CYCLE] == 1000 and ps[PS_CYCLE_MAX] == 1200
+    assert ps[PS_JITTER_MAX] == 200 and ps[PS_JITTER_SUM] == 300
 
 
 def test_pass_stats_twins_agree_and_wrap_and_clamp():

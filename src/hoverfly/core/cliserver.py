@@ -13,6 +13,7 @@ from hoverfly import __version__
 from hoverfly.core.arming import reason_names
 from hoverfly.core.mspserver import CONFIG_CLI, reason_words
 from hoverfly.core.params import INDEX, PARAMS, REBOOT, check_value, is_choice, row
+from hoverfly.core.scheduler import PS_CYCLE, PS_CYCLE_MAX, PS_JITTER_MAX
 from hoverfly.core.storage import STATUS_NAMES
 
 # Betaflight name -> (hoverfly name, factor: hoverfly value = Betaflight value * factor)
@@ -299,7 +300,8 @@ class CliServer:
             out.append("Arming disabled: no (ready to arm)")
         sch = f.scheduler
         out.append("Loop: %d Hz, cycle %d us (max %d), pass %d us, jitter max %d us, overruns %d"
-                   % (f.loop_hz, sch.cycle_us, sch.cycle_max_us, f.pass_us, sch.jitter_max_us, sch.overruns))
+                   % (f.loop_hz, sch.stats[PS_CYCLE], sch.stats[PS_CYCLE_MAX], f.pass_us, sch.stats[PS_JITTER_MAX],
+                      sch.overruns))
         cal = f.calibration.calibrated
         out.append("Sensors: gyro %s, calibration %s; estimator %s"
                    % ("ok" if f.imu_ok else "FAULT", "done" if cal else "running", f.params.get("estimator")))

@@ -65,7 +65,7 @@ from hoverfly.core.output import OutputStage
 from hoverfly.core.params import FS_SWITCH_MODES, Params
 from hoverfly.core.rc import RcInput
 from hoverfly.core.receiver import Receiver
-from hoverfly.core.scheduler import Scheduler
+from hoverfly.core.scheduler import PS_PASSES, Scheduler
 from hoverfly.core.scheduler import fast_pass_stats as _pass_stats
 from hoverfly.core.signals import Signals
 
@@ -527,7 +527,7 @@ class Flight:
         self.imu_ok = imu_ok
         # loop rate: a storm of overruns while armed disarms; any overrun blocks arming (LOAD)
         sched = self.scheduler
-        if fw.check_load(now_us, sched.passes, sched.overruns, armed):
+        if fw.check_load(now_us, sched.stats[PS_PASSES], sched.overruns, armed):
             arming.disarm(now_us, DISARM_LOAD)
         self.overloaded = fw.overloaded
         # whose throttle counts: the autopilot's when it holds the privilege (the pilot's is its cap)

@@ -60,6 +60,7 @@ from hoverfly.core.logframe import (
     header_offsets,
 )
 from hoverfly.core.params import PARAMS
+from hoverfly.core.scheduler import PS_CYCLE, PS_CYCLE_MAX, PS_JITTER_MAX, PS_PASSES
 from hoverfly.protocols.ulog import UlogWriter
 
 _SLOW_HZ = 10  # battery, status, loop and link topics
@@ -905,8 +906,8 @@ class Logger:
             h1, t, self._armed_t64, _ARMING_ARMED if armed else _ARMING_STANDBY,
             _NAV_STATES[mode] if 0 <= mode < 3 else 0, fs_state != 0, not f.rx_ok,
             _clamp_int(mode, 0, 255), _clamp_int(fs_state, 0, 255), f.imu_ok, f.calibration.calibrated,
-            h2, t, _clamp_int(sc.passes, 0, _U32_MAX), _clamp_int(sc.cycle_us, 0, _U32_MAX),
-            _clamp_int(sc.cycle_max_us, 0, _U32_MAX), _clamp_int(sc.jitter_max_us, 0, _U32_MAX),
+            h2, t, _clamp_int(sc.stats[PS_PASSES], 0, _U32_MAX), _clamp_int(sc.stats[PS_CYCLE], 0, _U32_MAX),
+            _clamp_int(sc.stats[PS_CYCLE_MAX], 0, _U32_MAX), _clamp_int(sc.stats[PS_JITTER_MAX], 0, _U32_MAX),
             _clamp_int(sc.overruns, 0, _U32_MAX), _clamp_int(self.frames, 0, _U32_MAX),
             _clamp_int(self.dropped, 0, _U32_MAX),
             h3, t) + link, 4, t)

@@ -19,6 +19,7 @@ from hoverfly import VERSION
 from hoverfly.core.arming import REASONS
 from hoverfly.core.control import MODE_ANGLE, MODE_HORIZON
 from hoverfly.core.failsafe import IDLE
+from hoverfly.core.scheduler import PS_CYCLE
 from hoverfly.protocols import msp
 
 CONFIG_CLI = 1  # flight.config_session bits (core/arming.py blocks arming while any is set)
@@ -236,7 +237,8 @@ class MspServer:
         load = f.pass_us * 100 // period if f.pass_us > 0 else 0
         flags = arming_flags(f)
         pack = msp.pack_status_ex if ex else msp.pack_status
-        return pack(sch.cycle_us if sch.cycle_us > 0 else period, 0, 1 | 32, modes, 0, load,
+        cycle_us = sch.stats[PS_CYCLE]
+        return pack(cycle_us if cycle_us > 0 else period, 0, 1 | 32, modes, 0, load,
                     flags, ARMING_FLAG_COUNT)
 
     def _rc_tuning(self):

@@ -29,7 +29,7 @@ PS_CYCLE_MAX = const(2)
 PS_JITTER_MAX = const(3)  # |cycle - period|, µs
 PS_JITTER_SUM = const(4)  # (wraps at COUNT_MASK)
 PS_PERIOD = const(5)  # the nominal period, µs
-_PS_SIZE = const(6)
+PS_SIZE = const(6)
 COUNT_MASK = const(0x3FFFFFFF)  # small ints on a 32-bit port; a cycle time is clamped to it
 
 
@@ -67,7 +67,9 @@ class Scheduler:
     def __init__(self):
         self.tasks = []
         self.period_us = 1000
-        self.stats = array("i", [0] * _PS_SIZE)  # PS_*: passes, cycle time, jitter (properties below)
+        # PS_*: passes, cycle time, jitter. Read as stats[PS_...]: not properties, which would make every
+        # attribute store on a Scheduler look in its class first (tests/test_portable_classes.py).
+        self.stats = array("i", [0] * PS_SIZE)
         self.stats[PS_PERIOD] = 1000
         self.overruns = 0
         self._last_us = 0
@@ -93,27 +95,6 @@ class Scheduler:
             self._slow_due_us = self._last_us
             self.next_due_us = self._last_us
         return t
-
-    # The pass statistics, read from `stats`.
-    @property
-    def passes(self):
-        return self.stats[PS_PASSES]
-
-    @property
-    def cycle_us(self):
-        return self.stats[PS_CYCLE]
-
-    @property
-    def cycle_max_us(self):
-        return self.stats[PS_CYCLE_MAX]
-
-    @property
-    def jitter_max_us(self):
-        return self.stats[PS_JITTER_MAX]
-
-    @property
-    def jitter_sum_us(self):
-        return self.stats[PS_JITTER_SUM]
 
     def start(self, now_us, loop_hz):
         self.period_us = 1000000 // loop_hz

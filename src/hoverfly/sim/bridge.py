@@ -36,6 +36,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from array import array
 from struct import pack_into, unpack_from
 
 from hoverfly.cli_flash import MPY_ARCH_CODE, mpy_arch
@@ -44,6 +45,7 @@ from hoverfly.core.autopilot import STATE_NAMES
 from hoverfly.core.events import EventLog
 from hoverfly.core.params import row
 from hoverfly.core.rc import RcInput
+from hoverfly.core.scheduler import PS_PASSES, PS_SIZE
 from hoverfly.core.signals import Signals
 from hoverfly.errors import UserError
 from hoverfly.protocols import bridge as B
@@ -314,9 +316,7 @@ class _Scheduler:
     """The pass statistics the runner reports; lockstep on the sim clock has no jitter."""
 
     def __init__(self):
-        self.passes = 0
-        self.jitter_max_us = 0
-        self.cycle_max_us = 0
+        self.stats = array("i", [0] * PS_SIZE)  # core/scheduler.py's layout (PS_*)
 
 
 class BridgedFlight:
@@ -553,7 +553,7 @@ class BridgedFlight:
     def _apply(self, p):
         flags, n, m, pass_us, ap_state, ap_privilege = unpack_from(B.OUT_HEAD_FMT, p, 0)
         self.steps += 1
-        self.scheduler.passes += 1
+        self.scheduler.stats[PS_PASSES] += 1
         self.fw_pass_sum_us += pass_us
         if pass_us > self.fw_pass_max_us:
             self.fw_pass_max_us = pass_us

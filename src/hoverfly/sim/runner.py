@@ -31,6 +31,7 @@ from hoverfly.core.failsafe import CAUSES, FAULT_NAMES, PROCEDURES
 from hoverfly.core.flight import Flight
 from hoverfly.core.mixer import MIXER_TABLES
 from hoverfly.core.params import Params
+from hoverfly.core.scheduler import PS_JITTER_MAX
 from hoverfly.errors import UserError
 from hoverfly.sim.airframes import load_airframe
 from hoverfly.sim.board import SimBoard
@@ -366,7 +367,7 @@ class SimRun:
                 "mean_us": round(loop_sum / n_steps * 1e6, 2) if n_steps else 0.0,
                 "max_us": round(loop_max * 1e6, 1),
                 "overruns": overruns,
-                "cycle_jitter_max_us": sched.jitter_max_us,
+                "cycle_jitter_max_us": sched.stats[PS_JITTER_MAX],
             },
             "battery": {"voltage_v": round(v.battery.voltage_v, 3), "mah_drawn": round(v.battery.mah_drawn, 1)},
             "outputs": self._outputs_report(),
