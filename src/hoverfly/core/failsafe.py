@@ -279,11 +279,8 @@ class FaultWatch:
             self.imu_fault = FAULT_NONE
         return self.imu_fault
 
-    def check_crash(self, now_us, armed, throttle_low, cos_tilt, gyro_rad_s, accel_m_s2):
-        """True once the craft has lain tipped over, still, armed with the throttle low for crash_time_ms."""
-        if not armed or self.crash_us <= 0 or not throttle_low or cos_tilt > _CRASH_COS:
-            self.crash_since_us = None
-            return False
+    def _lying_still(self, gyro_rad_s, accel_m_s2):
+        """Not turning, and about 1 g: what a craft lying where it fell reads."""
         g0 = gyro_rad_s[0]
         g1 = gyro_rad_s[1]
         g2 = gyro_rad_s[2]
@@ -291,13 +288,31 @@ class FaultWatch:
         a1 = accel_m_s2[1]
         a2 = accel_m_s2[2]
         a_sq = a0 * a0 + a1 * a1 + a2 * a2
-        if g0 * g0 + g1 * g1 + g2 * g2 > _CRASH_RATE_SQ or a_sq < _CRASH_G_LO_SQ or a_sq > _CRASH_G_HI_SQ:
+        return g0 * g0 + g1 * g1 + g2 * g2 <= _CRASH_RATE_SQ and _CRASH_G_LO_SQ <= a_sq <= _CRASH_G_HI_SQ
+
+    def check_crash(self, now_us, armed, throttle_low, cos_tilt, gyro_rad_s, accel_m_s2):
+        """True once the craft has lain tipped over, still, armed with the throttle low for crash_time_ms."""
+        # (The stillness test is a method of its own: this frame stays within 11 words, on the C stack on
+        # MicroPython, at every call.)
+        if (not armed or self.crash_us <= 0 or not throttle_low or cos_tilt > _CRASH_COS
+                or not self._lying_still(gyro_rad_s, accel_m_s2)):
             self.crash_since_us = None
             return False
         if self.crash_since_us is None:
             self.crash_since_us = now_us
             return False
         return ticks_diff(now_us, self.crash_since_us) >= self.crash_us
+
+    def _load_window(self, now_us, passes, overruns):
+        """check_load's ~100 ms window closed: the loop's rate and overruns over it. (A method of its own:
+        check_load's frame stays within 11 words, on the C stack on MicroPython, at every call.)"""
+        done = (passes - self._win_passes) & 0x3FFFFFFF  # the scheduler's count wraps there
+        expected = ticks_diff(now_us, self._win_us) // self._period_us
+        over = overruns - self._win_overruns
+        self.overloaded = done * 100 < expected * _LOAD_RATE_PCT or over * 2 > done
+        self._win_us = now_us
+        self._win_passes = passes
+        self._win_overruns = overruns
 
     def check_load(self, now_us, passes, overruns, armed):
         """Loop rate over ~100 ms windows; returns True on an overrun storm while armed."""
@@ -307,15 +322,8 @@ class FaultWatch:
             self._win_passes = passes
             self._win_overruns = overruns
             return False
-        span_us = ticks_diff(now_us, self._win_us)
-        if span_us >= 100000:
-            done = (passes - self._win_passes) & 0x3FFFFFFF  # the scheduler's count wraps there
-            expected = span_us // self._period_us
-            over = overruns - self._win_overruns
-            self.overloaded = done * 100 < expected * _LOAD_RATE_PCT or over * 2 > done
-            self._win_us = now_us
-            self._win_passes = passes
-            self._win_overruns = overruns
+        if ticks_diff(now_us, self._win_us) >= 100000:
+            self._load_window(now_us, passes, overruns)
         if not (armed and self.overloaded):
             self.storm_since_us = None
             return False

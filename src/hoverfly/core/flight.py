@@ -548,11 +548,14 @@ class Flight:
         ap.update(now_us, arming.armed)
         fs.observe(dt_s, s.attitude.q, s.accel_m_s2, s.setpoint.throttle_norm, s.attitude.cos_tilt,
                    arming.armed and self._throttle_was_up)
-        sticks_moved = (abs(rc.stick_raw[0]) > 0.3 or abs(rc.stick_raw[1]) > 0.3)
         # The failsafe switch in stage2 mode: lost from the first dropped frame, straight to stage 2.
         switch_stage2 = self.fs_switch and self._fs_switch_mode == SWITCH_STAGE2
-        fs.update(now_us, not self.rx_ok or switch_stage2, self.last_frame_us, arming.armed, sticks_moved, arming,
-                  CAUSE_SWITCH if self.fs_switch else CAUSE_NO_FRAMES, switch_stage2)
+        link_lost = not self.rx_ok or switch_stage2
+        # With no failsafe running and the link up (the usual call) Failsafe.update changes nothing.
+        if link_lost or fs.state != IDLE:
+            sticks_moved = (abs(rc.stick_raw[0]) > 0.3 or abs(rc.stick_raw[1]) > 0.3)
+            fs.update(now_us, link_lost, self.last_frame_us, arming.armed, sticks_moved, arming,
+                      CAUSE_SWITCH if self.fs_switch else CAUSE_NO_FRAMES, switch_stage2)
         if self.params.changed != self._configured_at and not arming.armed:
             self.configure()
 
