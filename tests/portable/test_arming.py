@@ -228,3 +228,19 @@ def test_bit_names_failing_checks_and_storage_blocks():
     b.update(False, True, True, True, False)
     assert b.names() == ["imu", "storage", "calibration"]
     assert b.flags & (1 << BIT_STORAGE) and b.blocks_arming()
+
+
+def test_hover_learning_runs_every_other_call_over_both_calls_time():
+    # while the pilot flies, Failsafe.observe learns at 50 Hz from the 100 Hz task: the second call
+    # updates over both calls' dt, the first changes nothing
+    fs = _failsafe()
+    q = array("f", [1.0, 0.0, 0.0, 0.0])
+    level = array("f", [0.0, 0.0, -9.80665])
+    fs.hover_norm = 0.3
+    fs.observe(0.01, q, level, 0.5, 1.0, True)
+    assert fs.hover_norm == 0.3
+    fs.observe(0.01, q, level, 0.5, 1.0, True)
+    assert abs(fs.hover_norm - (0.3 + 0.02 / 2.0 * 0.2)) < 1e-6
+    fs.observe(0.01, q, level, 0.5, 1.0, False)  # on the ground: the speed is zero, nothing held over
+    fs.observe(0.01, q, level, 0.5, 1.0, True)
+    assert fs.speed_down_m_s == 0.0 and abs(fs.hover_norm - 0.302) < 1e-6

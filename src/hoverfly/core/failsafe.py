@@ -89,6 +89,7 @@ class Failsafe:
         self.speed_down_m_s = 0.0
         self.land_throttle_norm = 0.3
         self._peak_sq = 0.0
+        self._learn_dt_s = -1.0  # observe: the dt of a call whose learning waits for the next (-1.0: none)
 
     def configure(self, params):
         self.procedure = PROCEDURES.index(params.get("fs_procedure"))
@@ -112,7 +113,22 @@ class Failsafe:
 
     def observe(self, dt_s, q, accel_m_s2, throttle_norm, cos_tilt, flying):
         """Slow task: learn the hover throttle while the pilot flies; while the failsafe runs,
-        integrate the vertical speed from the accelerometer and set the landing throttle."""
+        integrate the vertical speed from the accelerometer and set the landing throttle.
+
+        The learning while the pilot flies runs on every other call (50 Hz from the 100 Hz task), over
+        both calls' time: its time constants are seconds (_LEARN_TAU_S, _SPEED_LEAK_S), and each update
+        makes some thirty float objects on MicroPython. While the failsafe runs, every call counts."""
+        if self.state == IDLE:
+            if not flying:
+                self.speed_down_m_s = 0.0
+                self._learn_dt_s = -1.0
+                return
+            held = self._learn_dt_s
+            if held < 0.0:
+                self._learn_dt_s = dt_s
+                return
+            self._learn_dt_s = -1.0
+            dt_s += held
         # specific force to NED down: third row of the body->NED rotation, plus gravity. The row's
         # last term, 1 - 2 (x² + y²), is cos_tilt (Attitude keeps it): six float objects a call fewer
         # on MicroPython.
@@ -122,16 +138,13 @@ class Failsafe:
         z = q[3]
         a_down = (2.0 * ((x * z - w * y) * accel_m_s2[0] + (y * z + w * x) * accel_m_s2[1])
                   + cos_tilt * accel_m_s2[2] + _G_M_S2)
-        if self.state == IDLE:
+        if self.state == IDLE:  # flying (see above)
             # While the pilot flies the speed estimate leaks back to zero (a craft flown by hand
             # does not keep one vertical speed for long), so stage 1 starts from the speed the
             # craft really had, not from zero, and accelerometer bias cannot pile up.
-            if flying:
-                v = self.speed_down_m_s + a_down * dt_s
-                self.speed_down_m_s = v - v * dt_s / _SPEED_LEAK_S
-            else:
-                self.speed_down_m_s = 0.0
-            if flying and cos_tilt > 0.5:
+            v = self.speed_down_m_s + a_down * dt_s
+            self.speed_down_m_s = v - v * dt_s / _SPEED_LEAK_S
+            if cos_tilt > 0.5:
                 k = dt_s / _LEARN_TAU_S
                 if k > 1.0:
                     k = 1.0
