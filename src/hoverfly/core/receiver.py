@@ -123,6 +123,7 @@ class Receiver:
         self._win_errors = 0
         self._stats_frames = 0
         self._stats_us = 0
+        self._check_us = 0  # when update() next looks at the clock: the window's end, stale link statistics
         # telemetry (CRSF only)
         self.telemetry = None  # CrsfTelemetryScheduler while CRSF telemetry is on
         self.telemetry_frames = 0
@@ -180,6 +181,7 @@ class Receiver:
         self._win_start_us = now_us
         self._stats_us = now_us
         self._tlm_next_us = now_us
+        self._plan_check()
 
     # ------------------------------------------------------------------ input
     def update(self, now_us, board):
@@ -196,21 +198,35 @@ class Receiver:
                 if n >= _READ_BYTES:  # a full read: more may be waiting
                     new += self._read_more(board)
                 self.errors = dec.crc_errors + dec.length_errors
+                if self._crsf and dec.link_stats_frames != self._stats_frames:
+                    self._link_statistics(now_us)
         else:
-            new = self._read_other(board)
+            new = self._read_other(board, now_us)
         if new:
             new = self._count_frames(now_us, new)
         self.new_frames = new
-        if self._crsf:
-            if dec.link_stats_frames != self._stats_frames:
-                self._link_statistics(now_us)
-            elif self.link_quality_pct and ticks_diff(now_us, self._stats_us) > _LQ_STALE_US:
-                self.link_quality_pct = 0  # Betaflight: no 0x14 for 250 ms reads as no link
-                self.rssi_dbm = 0
-                self.snr_db = 0
+        if ticks_diff(now_us, self._check_us) >= 0:  # one look at the clock a call, for both timed checks
+            self._housekeeping(now_us)
+        return new
+
+    def _housekeeping(self, now_us):
+        """The link watch's timed parts, when _check_us comes: CRSF link statistics gone stale, the 1 s window."""
+        if self._crsf and self.link_quality_pct and ticks_diff(now_us, self._stats_us) > _LQ_STALE_US:
+            self.link_quality_pct = 0  # Betaflight: no 0x14 for 250 ms reads as no link
+            self.rssi_dbm = 0
+            self.snr_db = 0
         if ticks_diff(now_us, self._win_start_us) >= _WINDOW_US:
             self._close_window(now_us)
-        return new
+        self._plan_check()
+
+    def _plan_check(self):
+        """_check_us: the window's end, or sooner while CRSF link statistics read a link (their going stale)."""
+        due = ticks_add(self._win_start_us, _WINDOW_US)
+        if self._crsf and self.link_quality_pct:
+            stale = ticks_add(self._stats_us, _LQ_STALE_US + 1)
+            if ticks_diff(stale, due) < 0:
+                due = stale
+        self._check_us = due
 
     def _read_more(self, board):
         """Reads after a full one, _READS_MAX in all (bounded: a chattering UART cannot hold the task)."""
@@ -226,13 +242,15 @@ class Receiver:
                 break
         return new
 
-    def _read_other(self, board):
+    def _read_other(self, board, now_us):
         """Pin edges (PPM/PWM), or the frames the second core published (rx_core1)."""
         view = self._link
         if view is None:
             return self._read_edges(board)
         new = view.take()
         self.errors = view.crc_errors + view.length_errors
+        if self._crsf and view.link_stats_frames != self._stats_frames:
+            self._link_statistics(now_us)
         return new
 
     def _read_edges(self, board):
@@ -299,6 +317,7 @@ class Receiver:
         self.link_quality_pct = dec.link_quality_pct
         self.rssi_dbm = dec.rssi_dbm
         self.snr_db = dec.snr_db
+        self._plan_check()
 
     def frame_age_us(self, now_us):
         """Time since the last valid frame."""
