@@ -91,6 +91,7 @@ class Flight:
         self.fixed_imu = FixedImuFilter()  # the IMU filters in fixed point, with the fixed rate loop
         self._fixed_imu_on = False
         self._fixed_out_on = False  # the output stage's motor commands in fixed point, likewise
+        self._out_more = False  # a yaw servo or bidirectional DShot: _outputs has more to do (configure)
         self.fixed_att = FixedAttitude()  # the estimator (Mahony) in fixed point, likewise
         self._fixed_att_on = False
         self.output = OutputStage()
@@ -197,6 +198,7 @@ class Flight:
         self.output.configure(p, self.motor_count)
         self.motor_test.configure(p, self.motor_count)
         self.board.configure_outputs(p, self.motor_count, servo_count)
+        self._out_more = self.mixer.servo_yaw or self.output.bidir  # _outputs: a servo, or ESC replies
         self._imu_stale_us = p.get("imu_stale_ms") * 1000
         self._rx_timeout_us = p.get("rx_timeout_ms") * 1000
         self._airmode_thr = p.get("airmode_thr_pct") * 0.01
@@ -339,6 +341,12 @@ class Flight:
         if not armed or self.motor_test.active:  # armed with no test: nothing to end or write
             self._motor_test(now_us, armed, out)
         self.board.write_motors(out, self.motor_count)
+        if self._out_more:  # a quad with plain DShot (the usual craft) has neither
+            self._servo_and_telemetry(armed)
+
+    def _servo_and_telemetry(self, armed):
+        """_outputs' rarer part: the yaw servo (tricopter, seed 002's plane), the ESCs' DShot replies."""
+        s = self.signals
         if self.mixer.servo_yaw:
             self.output.servos(self.mixer.servo_norm, 1, armed, s.servo_norm)
             self.board.write_servos(s.servo_norm, 1)
