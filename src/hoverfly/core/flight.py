@@ -75,6 +75,8 @@ class Flight:
         self.board = board
         self.params = params if params is not None else Params()
         self.signals = Signals()
+        self._sp = self.signals.setpoint  # step's: a look-up a pass fewer each (Signals never replaces them)
+        self._attitude = self.signals.attitude
         self.events = EventLog()
         self.alignment = BoardAlignment()
         self.calibration = GyroCalibration()
@@ -240,12 +242,12 @@ class Flight:
         _pass_stats(self._pass_words, dt_us)  # the scheduler's pass statistics (Scheduler.pass_started's work)
         self._sense(now_us, dt_us)  # 1. IMU and filters, 2. estimator
         # 3. commander: the pilot's sticks, or the failsafe's
-        sp = self.signals.setpoint
+        sp = self._sp
         self.rc.update(sp)
         self.command(sp)
         # 4. controller and 5. mixer: in fixed point (pid_math; MicroPython's zero-allocation pass), or float
         if self._fixed_on:
-            self.fixed.update(sp, self.signals.attitude, dt_us, self.i_active, self.airmode_active)
+            self.fixed.update(sp, self._attitude, dt_us, self.i_active, self.airmode_active)
         else:
             self._control_float(dt_us, sp)
         self._outputs(now_us)  # 6. outputs
