@@ -541,7 +541,8 @@ class Flight:
             arming.disarm(now_us, DISARM_LOAD)
         self.overloaded = fw.overloaded
         # whose throttle counts: the autopilot's when it holds the privilege (the pilot's is its cap)
-        throttle_low = ap.throttle_low() if ap.state == AP_ENABLED else rc.throttle_low()
+        # (rc.throttle_low() inline: a call a run fewer)
+        throttle_low = ap.throttle_low() if ap.state == AP_ENABLED else rc.throttle_us < rc.min_check_us
         if fw.check_crash(now_us, arming.armed, throttle_low, s.attitude.cos_tilt, s.gyro_rad_s, s.accel_m_s2):
             self.events.record(now_us, EV_CRASH, 0)
             arming.disarm(now_us, DISARM_CRASH)
@@ -555,7 +556,8 @@ class Flight:
             # them to decide anything), and at once on a disarm (Arming.on_disarm), so an arm request right
             # after a disarm never meets the reasons of before the arming.
             self._arming_flags(now_us, throttle_low, battery_ok)
-        ap.update(now_us, arming.armed)
+        if ap.state == AP_ENABLED:  # Autopilot.update's own first test: only an enabled autopilot can go silent
+            ap.update(now_us, arming.armed)
         fs.observe(dt_s, s.attitude.q, s.accel_m_s2, s.setpoint.throttle_norm, s.attitude.cos_tilt,
                    arming.armed and self._throttle_was_up)
         # The failsafe switch in stage2 mode: lost from the first dropped frame, straight to stage 2.
