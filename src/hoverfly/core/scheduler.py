@@ -128,14 +128,14 @@ class Scheduler:
             self.next_due_us = ticks_add(now_us, _FAR_US)
             return
         wait_us = 0  # how late a slow task must be to run in this pass: a loop period once a task ran
-        if ticks_diff(now_us, fast.next_us) >= 0:
-            # _run(fast, now_us) inline: the receiver's task, every other pass at 1 kHz
+        late = ticks_diff(now_us, fast.next_us)
+        if late >= 0:
+            # _run(fast, now_us) inline, on the lateness already taken: the receiver's task, every other
+            # pass at 1 kHz (a period on; from now if it fell a whole period behind)
             fast.runs += 1
             fast.fn(now_us)
-            nxt = ticks_add(fast.next_us, fast.period_us)
-            if ticks_diff(now_us, nxt) >= 0:
-                nxt = ticks_add(now_us, fast.period_us)
-            fast.next_us = nxt
+            nxt = fast.period_us
+            fast.next_us = ticks_add(fast.next_us if late < nxt else now_us, nxt)
             wait_us = self.period_us
         if ticks_diff(now_us, self._slow_due_us) >= wait_us:  # none may run yet: not even the walk
             self._run_slow(now_us, wait_us)
