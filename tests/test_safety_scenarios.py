@@ -218,3 +218,27 @@ def test_silent_autopilot_hands_back_to_the_pilot_and_arm_switch_off_disarms(aut
     last = _events(r, "disarmed")[-1]
     assert last["detail"] == "switch" and last["t_s"] == pytest.approx(28.5, abs=0.05)
     assert not r["crashed"] and not r["armed"]
+
+
+@pytest.mark.parametrize("scenario", ["autopilot", "rx-loss", "rx-restore"])
+def test_commands_short_way_always_agrees_with_who_flies(scenario):
+    # Flight.command takes the pilot's sticks without looking further while _pilot_only holds; it is set
+    # wherever the failsafe or the autopilot change (the 100 Hz task, pilot frames, the autopilot's pass).
+    # At the end of every pass it must say what the failsafe and autopilot states say, through a whole
+    # scenario of autopilot enabling, overrides, latches, silence, link loss and restore.
+    from hoverfly.core.autopilot import AP_ENABLED
+    from hoverfly.core.failsafe import IDLE
+
+    run = SimRun("5inch", scenario, seed=3)
+    seen = set()
+
+    def hook(r):
+        f = r.flight
+        ap = f.autopilot
+        truth = f.failsafe.state == IDLE and ap.state != AP_ENABLED and ap.latch_norm < 0.0
+        assert f._pilot_only == truth, (r.board.sim_us, f.failsafe.state, ap.state, ap.latch_norm)
+        seen.add(truth)
+
+    run.on_step = hook
+    run.run()
+    assert seen == {True, False}  # both ways were taken

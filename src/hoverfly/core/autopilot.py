@@ -148,7 +148,8 @@ class Autopilot:
         return not self.switch_on()
 
     def on_pilot_frame(self, now_us, arm_switch, armed):
-        """One new frame from the pilot's receiver: run the enabling procedure."""
+        """One new frame from the pilot's receiver: run the enabling procedure. False when the state and the
+        latch cannot have changed (the switch off, and the autopilot off already: the usual frame)."""
         # switch_on() inline: this runs at every frame, and with the switch off (the usual frame) it is
         # most of the work.
         ch = self.ch
@@ -160,24 +161,25 @@ class Autopilot:
         else:
             self._arm_off_frames += 1
         if not ap_on:
-            if st != AP_OFF:
-                if st == AP_ENABLED or st == AP_SILENT:
-                    if st == AP_ENABLED and armed and self.has_frame:
-                        # Hard override: the pilot's sticks now, the throttle held at the autopilot's last.
-                        self.latch_norm = self.throttle_norm
-                        self.events.record(now_us, EV_AUTOPILOT_OVERRIDE, OVR_HARD)
-                    self.events.record(now_us, EV_AUTOPILOT_DISABLED, DIS_SWITCH_OFF)
-                self.state = AP_OFF
-                self.has_frame = False
-                self.soft = 0
-            return
+            if st == AP_OFF:
+                return False
+            if st == AP_ENABLED or st == AP_SILENT:
+                if st == AP_ENABLED and armed and self.has_frame:
+                    # Hard override: the pilot's sticks now, the throttle held at the autopilot's last.
+                    self.latch_norm = self.throttle_norm
+                    self.events.record(now_us, EV_AUTOPILOT_OVERRIDE, OVR_HARD)
+                self.events.record(now_us, EV_AUTOPILOT_DISABLED, DIS_SWITCH_OFF)
+            self.state = AP_OFF
+            self.has_frame = False
+            self.soft = 0
+            return True
         # An arm switch counts as off after disarm_frames frames, as for a disarm (seed 000).
         arm_off = self._arm_off_frames >= self.disarm_frames_needed
         if st == AP_OFF:
             self.state = AP_WAIT
             # The order matters: an arm switch already on must be seen off first.
             self._arm_seen_off = False
-            return
+            return True
         if st == AP_WAIT:
             if arm_off:
                 self._arm_seen_off = True
@@ -190,7 +192,7 @@ class Autopilot:
                 self._msp_disarm_frames = 0
                 self.latch_norm = -1.0
                 self.events.record(now_us, EV_AUTOPILOT_ENABLED, 0)
-            return
+            return True
         # enabled or silent: the arm switch off withdraws the privilege (Arming disarms)
         if arm_off:
             self.state = AP_WAIT
@@ -198,6 +200,7 @@ class Autopilot:
             self.has_frame = False
             self.soft = 0
             self.events.record(now_us, EV_AUTOPILOT_DISABLED, DIS_ARM_SWITCH)
+        return True
 
     # -------------------------------------------------------- the companion's side
     def on_msp_rc(self, now_us, channels_us, count, arming):

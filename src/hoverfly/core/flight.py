@@ -105,6 +105,7 @@ class Flight:
         self.autopilot.pilot_channels = self.signals.rc_channels_us
         self.arming.gate = self.autopilot  # in autopilot mode the pilot's switch does not arm
         self.arming.on_disarm = self._flags_on_disarm  # the disable reasons again, the moment it disarms
+        self._pilot_only = True  # command()'s short way (_who_flies)
         self.bit = BuiltInTest()
         self.config_session = 0  # 1 CLI, 2 MSP configurator, 4 maintenance: any set blocks arming
         self._arming_us = 0
@@ -383,6 +384,19 @@ class Flight:
     def command(self, sp):
         """Who flies: the pilot, the autopilot (seed 004) or the failsafe; and whether I-term and
         air mode may act. sp arrives holding the pilot's smoothed sticks."""
+        if self._pilot_only:  # the usual pass: no failsafe, no autopilot flying or holding a latch
+            mode = self.rc.mode
+        else:
+            mode = self._command_other(sp)
+        if mode != self._mode:
+            self._mode = mode
+            self.events.record(self._last_us, EV_MODE, mode)
+        sp.mode = mode
+        if not (self.i_active and self.arming.armed and self.airmode_active == self.airmode_enabled):
+            self._i_airmode(sp)  # in flight (armed, I-term on, air mode as set) nothing changes: not even the call
+
+    def _command_other(self, sp):
+        """command() when the pilot's sticks are not all: the failsafe's setpoint, or the autopilot's."""
         rc = self.rc
         if self.failsafe.state != IDLE:
             # SAFETY: the failsafe outranks the pilot's stale sticks and the autopilot.
@@ -390,17 +404,19 @@ class Flight:
         else:
             mode = rc.mode
             ap = self.autopilot
-            # Autopilot.apply's own test, here: with no autopilot flying and no throttle latch (the usual
-            # pass) it would change nothing, and the call alone costs more than the two look-ups.
             if (ap.state == AP_ENABLED or ap.latch_norm >= 0.0) and ap.apply(self._last_us, sp, rc.stick_raw,
                                                                              rc.throttle_raw):
                 rc.fill_setpoint(sp)
-        if mode != self._mode:
-            self._mode = mode
-            self.events.record(self._last_us, EV_MODE, mode)
-        sp.mode = mode
-        if not (self.i_active and self.arming.armed and self.airmode_active == self.airmode_enabled):
-            self._i_airmode(sp)  # in flight (armed, I-term on, air mode as set) nothing changes: not even the call
+        self._who_flies()  # a latch the pilot's stick released, a failsafe that ended
+        return mode
+
+    def _who_flies(self):
+        """command()'s short way when neither the failsafe nor the autopilot (enabled, or holding a throttle
+        latch) has a say. SAFETY: called wherever those change, so the next pass sees it: the 100 Hz task
+        (Failsafe.update, Autopilot.update), each pilot frame (Autopilot.on_pilot_frame), and command's
+        own other way (Autopilot.apply)."""
+        ap = self.autopilot
+        self._pilot_only = self.failsafe.state == IDLE and ap.state != AP_ENABLED and ap.latch_norm < 0.0
 
     def _i_airmode(self, sp):
         """Whether I-term and air mode may act."""
@@ -433,7 +449,8 @@ class Flight:
         """A new frame from the pilot, after arming has seen it: the autopilot's enabling procedure, the
         AIRMODE switch (here in the receiver task, not in every pass's command())."""
         rc = self.rc
-        self.autopilot.on_pilot_frame(self._last_us, rc.arm_switch, self.arming.armed)
+        if self.autopilot.on_pilot_frame(self._last_us, rc.arm_switch, self.arming.armed):
+            self._who_flies()
         self._airmode_from_switch()
 
     def _failsafe_setpoint(self, sp):
@@ -568,6 +585,7 @@ class Flight:
             sticks_moved = (abs(rc.stick_raw[0]) > 0.3 or abs(rc.stick_raw[1]) > 0.3)
             fs.update(now_us, link_lost, self.last_frame_us, arming.armed, sticks_moved, arming,
                       CAUSE_SWITCH if self.fs_switch else CAUSE_NO_FRAMES, switch_stage2)
+        self._who_flies()
         if self.params.changed != self._configured_at and not arming.armed:
             self.configure()
 
