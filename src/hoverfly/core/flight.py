@@ -451,7 +451,8 @@ class Flight:
         rc = self.rc
         if self.autopilot.on_pilot_frame(self._last_us, rc.arm_switch, self.arming.armed):
             self._who_flies()
-        self._airmode_from_switch()
+        if rc.airmode_box:  # with no AIRMODE channel only configure() changes it (_airmode_from_switch)
+            self.airmode_enabled = rc.airmode_switch
 
     def _failsafe_setpoint(self, sp):
         """The failsafe's setpoint: level (angle mode, sticks centred) and its throttle in stage 2."""
@@ -471,7 +472,7 @@ class Flight:
 
     def _airmode_from_switch(self):
         """airmode_enabled: the AIRMODE switch when a channel is set for it, else the airmode parameter
-        (after each frame and each configure: nothing else changes it)."""
+        (configure; each frame takes the switch's half itself, in _pilot_frame: nothing else changes it)."""
         rc = self.rc
         self.airmode_enabled = rc.airmode_switch if rc.airmode_box else self.mixer.airmode
 
