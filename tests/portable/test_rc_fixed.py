@@ -246,7 +246,7 @@ def test_rc_frame_twins_agree():
         fco[4] = pick(60)
         fco[5] = pick(60)
         fco[6] = config % 2
-        for k in range(7, 19, 3):
+        for k in range(7, FC_SIZE, 3):
             fco[k] = pick(20)  # 0 = none, 17..19: beyond the frame
             fco[k + 1] = 900 + pick(800)
             fco[k + 2] = fco[k + 1] + pick(900)
@@ -264,4 +264,4 @@ def test_rc_frame_twins_agree():
             assert rp == rv, (config, n, rp, rv)
             assert list(last_p) == list(last_v) and list(st_p) == list(st_v), (config, n)
             seen |= rp
-    assert seen == 255  # every stick moved and every switch read on somewhere
+    assert seen == 511  # every stick moved and every switch read on somewhere

@@ -105,3 +105,25 @@ def test_reconfigure_takes_new_ranges():
     rc.new_frame(_frame(ch7=2000))
     assert rc.airmode_box and rc.airmode_switch
     assert rc.fs_switch_in(_frame(ch8=2000))
+
+
+def test_autopilot_switch_range_reads_as_the_autopilot_reads_it():
+    # the Flight hands RcInput's reading of the autopilot switch to Autopilot.on_pilot_frame: it must be
+    # the autopilot's own switch_on() on the same frame, for the default AUX3 range and a moved one
+    from hoverfly.core.autopilot import Autopilot
+    from hoverfly.core.events import EventLog
+
+    for ch, lo, hi in ((7, 1700, 2100), (8, 1300, 1600), (0, 1000, 2100)):
+        p = Params()
+        assert p.set("ap_ch", ch) is None
+        assert p.set("ap_min_us", lo) is None
+        assert p.set("ap_max_us", hi) is None
+        rc = RcInput()
+        rc.configure(p, 1000)
+        ap = Autopilot(EventLog())
+        ap.configure(p)
+        for us in (900, 1299, 1300, 1599, 1600, 1699, 1700, 2099, 2100):
+            frame = _frame(ch7=us, ch8=us)
+            rc.new_frame(frame)
+            ap.pilot_channels = frame
+            assert rc.ap_switch == ap.switch_on(), (ch, lo, hi, us)

@@ -164,9 +164,9 @@ def rc_frame(fco_a, last_a, channels_a, st_a) -> int:
                 st[i] = q  # S_X + i
         i += 1
     n = int(len(channels_a))
-    bit = 16  # RF_ARM, then HORIZON, ANGLE, AIRMODE
+    bit = 16  # RF_ARM, then HORIZON, ANGLE, AIRMODE, AP
     k = 7  # FC_SW
-    while k < 19:  # FC_SIZE
+    while k < 22:  # FC_SIZE
         ch = fco[k]
         if ch > 0 and ch <= n:
             v = int(ch16[ch - 1])

@@ -147,14 +147,13 @@ class Autopilot:
         """Arming asks: may the pilot's arm switch arm? Not in autopilot mode (seed 004)."""
         return not self.switch_on()
 
-    def on_pilot_frame(self, now_us, arm_switch, armed):
-        """One new frame from the pilot's receiver: run the enabling procedure. False when the state and the
-        latch cannot have changed (the switch off, and the autopilot off already: the usual frame)."""
-        # switch_on() inline: this runs at every frame, and with the switch off (the usual frame) it is
-        # most of the work.
-        ch = self.ch
-        chans = self.pilot_channels
-        ap_on = 0 < ch and chans is not None and ch <= len(chans) and self.lo_us <= chans[ch - 1] < self.hi_us
+    def on_pilot_frame(self, now_us, arm_switch, armed, ap_on=None):
+        """One new frame from the pilot's receiver: run the enabling procedure. ap_on: the autopilot switch
+        in the frame where the caller has read it (Flight: RcInput's mode ranges), else switch_on(). False
+        when the state and the latch cannot have changed (the switch off, the autopilot off already: the
+        usual frame)."""
+        if ap_on is None:
+            ap_on = self.switch_on()
         st = self.state
         if arm_switch:
             self._arm_off_frames = 0

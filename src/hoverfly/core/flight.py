@@ -449,7 +449,7 @@ class Flight:
         """A new frame from the pilot, after arming has seen it: the autopilot's enabling procedure, the
         AIRMODE switch (here in the receiver task, not in every pass's command())."""
         rc = self.rc
-        if self.autopilot.on_pilot_frame(self._last_us, rc.arm_switch, self.arming.armed):
+        if self.autopilot.on_pilot_frame(self._last_us, rc.arm_switch, self.arming.armed, rc.ap_switch):
             self._who_flies()
         if rc.airmode_box:  # with no AIRMODE channel only configure() changes it (_airmode_from_switch)
             self.airmode_enabled = rc.airmode_switch

@@ -117,19 +117,20 @@ def rc_pass(co, st, stick, rate):
 _rc_pass = _viper.rc_pass if HAS_ACCEL else rc_pass
 
 # new_frame's table (RcInput._fco, from configure): the sticks' channels (0-based), their deadbands,
-# whether the fixed-point stage takes the sticks, and the ARM, HORIZON, ANGLE and AIRMODE ranges
-# (channel 1-based, 0 = none; lo <= µs < hi).
+# whether the fixed-point stage takes the sticks, and the ARM, HORIZON, ANGLE, AIRMODE and autopilot (seed
+# 004's switch: ap_ch, ap_min_us, ap_max_us) ranges (channel 1-based, 0 = none; lo <= µs < hi).
 FC_CH = const(0)  # roll, pitch, yaw, throttle
 FC_DB = const(4)
 FC_YAW_DB = const(5)
 FC_FIXED = const(6)
 FC_SW = const(7)  # three words a switch
-FC_SIZE = const(19)
+FC_SIZE = const(22)
 # rc_frame's answer: bits 0..3 the sticks that moved (roll, pitch, yaw, throttle), then the switches in range
 RF_ARM = const(16)
 RF_HORIZON = const(32)
 RF_ANGLE = const(64)
 RF_AIRMODE = const(128)
+RF_AP = const(256)
 
 
 def rc_frame(fco, last, channels_us, st):
@@ -237,11 +238,13 @@ class RcInput:
         self.mode = MODE_ACRO
         self.airmode_box = False  # an AIRMODE channel is set: the switch, not the airmode parameter, decides
         self.airmode_switch = False
+        self.ap_switch = False  # the autopilot switch in the latest frame
         self.frames = 0
         self._arm = (5, 1700, 2100)
         self._angle = (6, 1300, 2100)
         self._horizon = (6, 1300, 1700)
         self._airmode = (0, 1700, 2100)
+        self._ap = (0, 1700, 2100)  # the autopilot switch (Autopilot reads its own copy for its other uses)
         self._fs_switch = (0, 1700, 2100)
         self._smooth_type = "pt2"
         self._thr_bands = None  # seed 001: (DESCEND, HOVERING, CLIMB) µs, or None for the raw stick
@@ -303,6 +306,7 @@ class RcInput:
         self._horizon = (params.get("horizon_ch"), params.get("horizon_min_us"), params.get("horizon_max_us"))
         self._airmode = (params.get("airmode_ch"), params.get("airmode_min_us"), params.get("airmode_max_us"))
         self.airmode_box = self._airmode[0] > 0
+        self._ap = (params.get("ap_ch"), params.get("ap_min_us"), params.get("ap_max_us"))
         self._fs_switch = (params.get("fs_switch_ch"), params.get("fs_switch_min_us"), params.get("fs_switch_max_us"))
         math_kind = params.get("pid_math")
         self._set_fixed(kind == "pt2" and (math_kind == "fixed" or (math_kind == "auto" and HAS_ACCEL)))
@@ -321,7 +325,7 @@ class RcInput:
         t[FC_YAW_DB] = self.yaw_deadband_us
         t[FC_FIXED] = 1 if self.fixed else 0
         k = FC_SW
-        for sw in (self._arm, self._horizon, self._angle, self._airmode):
+        for sw in (self._arm, self._horizon, self._angle, self._airmode, self._ap):
             t[k] = sw[0]
             t[k + 1] = sw[1]
             t[k + 2] = sw[2]
@@ -406,6 +410,7 @@ class RcInput:
         self.arm_switch = (r & RF_ARM) != 0
         self.mode = MODE_HORIZON if r & RF_HORIZON else (MODE_ANGLE if r & RF_ANGLE else MODE_ACRO)
         self.airmode_switch = (r & RF_AIRMODE) != 0
+        self.ap_switch = (r & RF_AP) != 0
         self.frames += 1
 
     def _sticks(self, channels_us, r):
