@@ -254,14 +254,23 @@ def test_rc_frame_twins_agree():
         last_v = array("i", last_p)
         st_p = array("i", [0] * ST_SIZE)
         st_v = array("i", [0] * ST_SIZE)
-        ch = array("H", [1500] * 16)
+        ch = array("H", [1500] * 16)  # the receiver's frame, copied into each twin's pilot frame (18 words)
+        dst_p = array("H", [0] * 18)
+        dst_v = array("H", [0] * 18)
         for n in range(40):
             for i in range(16):
                 if pick(3) == 0:
                     ch[i] = (880, 1000, 1500, 1505, 1495, 2000, 2120, 1000 + pick(1001))[pick(8)]
-            rp = rcmod.rc_frame(fco, last_p, ch, st_p)
-            rv = twin(fco, last_v, ch, st_v)
+            if n % 2:
+                rp = rcmod.rc_frame(fco, last_p, dst_p, st_p, ch)
+                rv = twin(fco, last_v, dst_v, st_v, ch)
+            else:  # in place, as new_frame(channels) without a source
+                dst_p[0:16] = ch
+                dst_v[0:16] = ch
+                rp = rcmod.rc_frame(fco, last_p, dst_p, st_p, dst_p)
+                rv = twin(fco, last_v, dst_v, st_v, dst_v)
             assert rp == rv, (config, n, rp, rv)
             assert list(last_p) == list(last_v) and list(st_p) == list(st_v), (config, n)
+            assert list(dst_p[:16]) == list(ch) and list(dst_v) == list(dst_p), (config, n)
             seen |= rp
     assert seen == 511  # every stick moved and every switch read on somewhere

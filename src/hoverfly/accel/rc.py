@@ -122,15 +122,20 @@ def rc_pass(co_a, st_a, stick_a, rate_a) -> int:
 
 
 @micropython.viper
-def rc_frame(fco_a, last_a, channels_a, st_a) -> int:
-    """core/rc.py `rc_frame`: the sticks that moved (their µs into last), in fixed point their Q20 into
-    st (_stick_q's arithmetic, the division included), and the mode switches in range. Layout FC_* of
-    core/rc.py, repeated here as literals. µs values are below 2**16 and Q20 values within +-2**20; the
-    one product, a * 2**21 with a < 500, stays below 2**30."""
+def rc_frame(fco_a, last_a, channels_a, st_a, src_a) -> int:
+    """core/rc.py `rc_frame`: the receiver's 16 channels copied in, the sticks that moved (their µs into last),
+    in fixed point their Q20 into st (_stick_q's arithmetic, the division included), and the mode switches in
+    range. Layout FC_* of core/rc.py, repeated here as literals. µs values are below 2**16 and Q20 values
+    within +-2**20; the one product, a * 2**21 with a < 500, stays below 2**30."""
     fco = ptr32(fco_a)
     last = ptr32(last_a)
     ch16 = ptr16(channels_a)
     st = ptr32(st_a)
+    src = ptr16(src_a)
+    i = 0
+    while i < 16:  # CHANNELS: the receiver's frame into the pilot's (a copy onto itself when the same array)
+        ch16[i] = src[i]
+        i += 1
     r = 0
     i = 0
     while i < 4:

@@ -507,8 +507,7 @@ class Flight:
         """The frame's channels to the pilot's sticks and switches, and to arming."""
         channels = self.signals.rc_channels_us
         self.last_frame_us = now_us
-        rx.copy_channels(channels)
-        self.rc.new_frame(channels)
+        self.rc.new_frame(channels, rx.channels_us)  # the receiver's frame copied in, in the same call
         if not self.rx_ok:
             self.rx_ok = True
             self.events.record(now_us, EV_RX_RESTORED, 0)

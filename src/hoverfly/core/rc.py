@@ -27,6 +27,7 @@ from hoverfly.compat import accel_module, const
 from hoverfly.core.control import MODE_ACRO, MODE_ANGLE, MODE_HORIZON
 from hoverfly.core.filters import AlphaBeta, Pt1, Pt2
 from hoverfly.core.rates import ActualRates
+from hoverfly.protocols.rxcodec import CHANNELS
 
 _DEG = math.pi / 180.0
 _INV16 = 1.0 / 65536.0
@@ -133,11 +134,15 @@ RF_AIRMODE = const(128)
 RF_AP = const(256)
 
 
-def rc_frame(fco, last, channels_us, st):
-    """new_frame's integer part, in one call: which sticks moved since the last frame (their µs into `last`),
+def rc_frame(fco, last, channels_us, st, src_us):
+    """new_frame's integer part, in one call: the receiver's 16 channels src_us copied into channels_us
+    (unless they are the same array), which sticks moved since the last frame (their µs into `last`),
     in fixed point their Q20 into st[S_X..] (roll, pitch, yaw: _stick_q, pitch negated: stick forward is
     nose down in FRD; the throttle is left to RcInput._throttle), and which mode switches are in range.
     The viper twin accel/rc.py `rc_frame` stands in for it on MicroPython (test_rc_modes checks both)."""
+    if src_us is not channels_us:
+        for i in range(CHANNELS):
+            channels_us[i] = src_us[i]
     r = 0
     for i in range(4):
         us = channels_us[fco[FC_CH + i]]
@@ -400,11 +405,12 @@ class RcInput:
             return -1.0
         return v
 
-    def new_frame(self, channels_us):
-        """Take one receiver frame (µs per channel)."""
-        # One call (rc_frame, viper on MicroPython) for the sticks that moved, their fixed-point inputs and
-        # the mode switches; the floats here only for the sticks that moved.
-        r = _rc_frame(self._fco, self._last_us, channels_us, self._st)
+    def new_frame(self, channels_us, src_us=None):
+        """Take one receiver frame (µs per channel, an array("H")); src_us: the receiver's 16 channels, copied
+        into channels_us first (the Flight's rc_channels_us, the pilot's frame) in the same call."""
+        # One call (rc_frame, viper on MicroPython) for the copy, the sticks that moved, their fixed-point
+        # inputs and the mode switches; the floats here only for the sticks that moved.
+        r = _rc_frame(self._fco, self._last_us, channels_us, self._st, channels_us if src_us is None else src_us)
         if r & 15:
             self._sticks(channels_us, r)
         self.arm_switch = (r & RF_ARM) != 0
