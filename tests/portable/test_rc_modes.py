@@ -127,3 +127,10 @@ def test_autopilot_switch_range_reads_as_the_autopilot_reads_it():
             rc.new_frame(frame)
             ap.pilot_channels = frame
             assert rc.ap_switch == ap.switch_on(), (ch, lo, hi, us)
+
+
+def test_fs_switch_box_says_whether_a_failsafe_channel_is_set():
+    # Flight._rx_frame reads the FAILSAFE box only where a channel is set for it
+    assert not _rc().fs_switch_box
+    rc = _rc(fs_switch_ch=8)
+    assert rc.fs_switch_box and rc.fs_switch_in(_frame(ch8=2000))

@@ -492,7 +492,8 @@ class Flight:
 
     def _rx_frame(self, now_us, rx):
         """A new frame: the failsafe switch, the pilot's sticks and switches, arming, telemetry."""
-        fs_switch = self.fs_switch = self.rc.fs_switch_in(rx.channels_us)
+        rc = self.rc
+        fs_switch = self.fs_switch = rc.fs_switch_box and rc.fs_switch_in(rx.channels_us)  # no channel: no call
         if fs_switch and self._fs_switch_mode != SWITCH_KILL:
             # SAFETY: failsafe switch (stage1/stage2): the frame is dropped as if it never came,
             # so the link watch times out and the failsafe runs as for a lost receiver.

@@ -242,6 +242,7 @@ class RcInput:
         self.arm_switch = False
         self.mode = MODE_ACRO
         self.airmode_box = False  # an AIRMODE channel is set: the switch, not the airmode parameter, decides
+        self.fs_switch_box = False  # a FAILSAFE channel is set (fs_switch_in can read on)
         self.airmode_switch = False
         self.ap_switch = False  # the autopilot switch in the latest frame
         self.frames = 0
@@ -319,8 +320,8 @@ class RcInput:
         self._forget()
 
     def frame_table(self):
-        """new_frame's table (FC_*) from the channel map, the deadbands, the stage and the mode ranges
-        (configure calls it; so must anything that changes those afterwards)."""
+        """new_frame's table (FC_*) from the channel map, the deadbands, the stage and the mode ranges, and
+        fs_switch_box (configure calls it; so must anything that changes those afterwards)."""
         t = self._fco
         t[FC_CH] = self.roll_ch
         t[FC_CH + 1] = self.pitch_ch
@@ -329,6 +330,7 @@ class RcInput:
         t[FC_DB] = self.deadband_us
         t[FC_YAW_DB] = self.yaw_deadband_us
         t[FC_FIXED] = 1 if self.fixed else 0
+        self.fs_switch_box = self._fs_switch[0] > 0
         k = FC_SW
         for sw in (self._arm, self._horizon, self._angle, self._airmode, self._ap):
             t[k] = sw[0]
