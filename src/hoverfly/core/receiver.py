@@ -248,6 +248,8 @@ class Receiver:
         if view is None:
             return self._read_edges(board)
         new = view.take()
+        if new < 0:  # nothing new published (most polls)
+            return 0
         self.errors = view.crc_errors + view.length_errors
         if self._crsf and view.link_stats_frames != self._stats_frames:
             self._link_statistics(now_us)

@@ -136,6 +136,8 @@ class LinkView:
         self._view = memoryview(self.channels_us)
         self._scratch = array("H", [1500] * CHANNELS)  # a copy lands here until it is known whole
         self._scratch_view = memoryview(self._scratch)
+        self.words = array("i", [0] * _WORDS)  # the last whole copy of RxLink.words
+        self._words_view = memoryview(self.words)
         self.failsafe = False
         self.frame_lost = False
         self.crc_errors = 0
@@ -149,39 +151,35 @@ class LinkView:
         self._seq = 0
 
     def take(self):
-        """New valid frames since the last take (0 when nothing new, or when the copy was torn)."""
+        """New valid frames since the last take; -1 when core 1 published nothing new since (or the copy was
+        torn: the next take has the newer one). 0: a publish without frames (error or link-statistics counts
+        moved). Everything is copied at once into `words` (this side's copy of RxLink.words) and a scratch
+        buffer, and kept only if the sequence word did not move meanwhile; the attributes follow the copy."""
         link = self.link
         w = link.words
         seq = w[W_SEQ]
         if seq == self._seq or seq & 1:
-            return 0
-        frames = w[W_FRAMES]
-        new = (frames - self.frames) & MASK
-        if new:
-            self._scratch_view[0:CHANNELS] = link.channels_us
-        failsafe = w[W_FAILSAFE] != 0
-        lost = w[W_LOST] != 0
-        crc = w[W_CRC]
-        length = w[W_LENGTH]
-        stats = w[W_STATS]
-        lq = w[W_LQ]
-        rssi = w[W_RSSI]
-        snr = w[W_SNR]
+            return -1
+        self._words_view[0:_WORDS] = w  # one copy each, no allocation: then the sequence word again
+        self._scratch_view[0:CHANNELS] = link.channels_us
         if w[W_SEQ] != seq:
-            self.torn += 1  # the channels may be half old, half new: the next take has the newer ones
-            return 0
-        if new:
-            self._view[0:CHANNELS] = self._scratch
+            self.torn += 1  # the copy may be half old, half new
+            return -1
         self._seq = seq
-        self.frames = frames
-        self.failsafe = failsafe
-        self.frame_lost = lost
-        self.crc_errors = crc
-        self.length_errors = length
-        self.link_stats_frames = stats
-        self.link_quality_pct = lq
-        self.rssi_dbm = rssi
-        self.snr_db = snr
+        c = self.words
+        new = (c[W_FRAMES] - self.frames) & MASK
+        if new:
+            self.frames = c[W_FRAMES]
+            self._view[0:CHANNELS] = self._scratch
+            self.failsafe = c[W_FAILSAFE] != 0
+            self.frame_lost = c[W_LOST] != 0
+        self.crc_errors = c[W_CRC]
+        self.length_errors = c[W_LENGTH]
+        if c[W_STATS] != self.link_stats_frames:
+            self.link_stats_frames = c[W_STATS]
+            self.link_quality_pct = c[W_LQ]
+            self.rssi_dbm = c[W_RSSI]
+            self.snr_db = c[W_SNR]
         return new
 
     def tx_buffer(self):
