@@ -8,7 +8,7 @@ import _thread
 from array import array
 
 from fastpathkit import heap_bytes
-from test_receiver import CH, T0, FakeBoard
+from test_receiver import CH, T0, FakeBoard, _receiver
 
 from hoverfly.compat import IS_MICROPYTHON, sleep_us, ticks_add
 from hoverfly.core.control import MODE_ANGLE
@@ -21,18 +21,9 @@ from hoverfly.protocols import crsf, sbus
 
 def _pair(provider="crsf", **values):
     """(receiver parsing here, receiver fed by core 1, core 1's RxCore), configured alike."""
-    out = []
-    for _ in range(2):
-        p = Params()
-        p.set("rx_provider", provider)
-        for name in values:
-            p.set(name, values[name])
-        rx = Receiver()
-        rx.configure(p)
-        rx.start(T0)
-        out.append(rx)
-    core = out[1].use_core1(RxLink())
-    return out[0], out[1], core
+    here = _receiver(provider, **values)
+    there = _receiver(provider, **values)
+    return here, there, there.use_core1(RxLink())
 
 
 def _state(rx):
