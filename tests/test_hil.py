@@ -22,6 +22,7 @@ import pytest
 from hoverfly.cli import main
 from hoverfly.errors import UserError
 from hoverfly.protocols import bridge as B
+from hoverfly.sim.bridge import DEFAULT_HEAP
 from hoverfly.sim.runner import SimRun, fly
 from test_micropython import MICROPYTHON, ROOT
 
@@ -46,8 +47,9 @@ def micropython_device():
     """The HIL firmware under the MicroPython VM on the far end of a pty; yields (path, process)."""
     with pty_port() as (path, far):
         env = dict(os.environ, MICROPYPATH="%s:.frozen" % (ROOT / "src"))
-        proc = subprocess.Popen([MICROPYTHON, "-X", "heapsize=512k", "-c", DEVICE_CODE], stdin=far, stdout=far,
-                                stderr=subprocess.PIPE, env=env)
+        # the bridge's heap: compiled from source at import, as `hoverfly fly --firmware micropython` runs it
+        proc = subprocess.Popen([MICROPYTHON, "-X", "heapsize=" + DEFAULT_HEAP, "-c", DEVICE_CODE], stdin=far,
+                                stdout=far, stderr=subprocess.PIPE, env=env)
         try:
             yield path, proc
         finally:

@@ -53,8 +53,9 @@ from hoverfly.protocols import bridge as B
 FIRMWARES = ("cpython", "micropython")
 SRC_DIR = pathlib.Path(__file__).resolve().parent.parent.parent  # the folder holding hoverfly/
 # The Pico's MicroPython heap is about 200 KB; the unix VM also compiles our sources at
-# import (a Pico loads precompiled .mpy), so give it some room above that.
-DEFAULT_HEAP = "512k"
+# import (a Pico loads precompiled .mpy), so give it some room above that. (512 KB was at the edge by
+# 2026-12: the HIL device's heap, compiled from source, had no 2.5 KB run left at boot.)
+DEFAULT_HEAP = "768k"
 # USB CDC ignores the rate; a USB-UART adapter wired to boards/rp2/hil.py's UART uses it.
 DEFAULT_BAUD = 115200
 # Any frame a device was left inside (its host died mid-frame) is at most this long: these
