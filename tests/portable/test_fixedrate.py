@@ -212,6 +212,7 @@ def test_the_viper_twin_gives_the_python_twins_bits():
             # roll's I-term limit 2**25 - 1 (25 bits of ones): an I-term held there rounds up into the next
             # power of two when it becomes a float32, the encode's carry case
             fx.co[fixedrate.AXIS + fixedrate.ILIM] = 0x1FFFFFF
+            fx.terms_every(3 if sets is configs[1] else 1)  # the terms and torques every third pass, alike
         rnd = Lcg(11)
         for n in range(1500):
             odd = n % 5 == 4  # every fifth pass: some inputs are not numbers, infinite or huge
@@ -290,3 +291,29 @@ def test_an_unconfigured_stage_writes_nothing():
     fx.update(s.setpoint, s.attitude, 1000, True, True)
     assert list(fx.st) == [0] * fixedrate.ST_SIZE
     assert list(s.motor_norm) == [0.0] * len(s.motor_norm)
+
+
+def test_the_pid_terms_are_written_every_terms_every_passes():
+    # FixedRate.terms_every: the PID terms and torques (outputs for the log and the maintenance telemetry)
+    # every pass while a log runs, every few passes otherwise; the motors every pass either way
+    for every in (1, 4):
+        s, c, m, fx, on = _stages()
+        assert on
+        fx.terms_every(every)
+        rnd = Lcg(5)
+        changed = []
+        for _ in range(40):
+            s.setpoint.throttle_norm = 0.5
+            s.setpoint.mode = 0
+            for k in range(3):
+                s.gyro_rad_s[k] = rnd.span(2.0)
+                s.setpoint.rate_rad_s[k] = rnd.span(2.0)
+            before = list(s.pid_terms) + list(s.torque_norm)
+            motors = list(s.motor_norm)
+            fx.update(s.setpoint, s.attitude, 1000, True, False)
+            changed.append(list(s.pid_terms) + list(s.torque_norm) != before)
+            assert list(s.motor_norm) != motors  # the gyro moved: the motors follow at every pass
+        if every == 1:
+            assert all(changed)
+        else:
+            assert changed == [n % 4 == 0 for n in range(40)], changed

@@ -482,3 +482,19 @@ def test_signals_logged_arrays_live_in_the_frame_where_the_runtime_can_view_byte
         if rec.backed:  # the stage's write is the frame's bytes
             off = table[2 * k] + table[2 * k + 1] - 4
             assert struct.unpack_from("<f", rec.buf, off)[0] == 0.5 + k
+
+
+def test_the_fixed_controller_writes_its_pid_terms_every_pass_while_a_log_runs():
+    # Flight.logging_changed: every pass while the logger's every-pass calls are installed (the log
+    # records the terms at every pass), every TERMS_IDLE_PASSES passes otherwise
+    from hoverfly.core.fixedrate import TERMS_EVERY
+    from hoverfly.core.flight import TERMS_IDLE_PASSES
+
+    f = Flight(_Board(), None)
+    f.params.set("pid_math", "fixed")
+    f.start(100000)
+    assert f.log_pass is None and f.fixed.co[TERMS_EVERY] == TERMS_IDLE_PASSES
+    f.logger.open(_Sink())
+    assert f.log_pass is not None and f.fixed.co[TERMS_EVERY] == 1
+    f.logger.close()
+    assert f.log_pass is None and f.fixed.co[TERMS_EVERY] == TERMS_IDLE_PASSES

@@ -494,6 +494,14 @@ def update(self, sp, attitude, dt_us: int, i_active, airmode_active):
         st[69 + n] = sp1
     lg = ptr8(t[18] | ((t[19] << 16) << 16))
     run = 0
+    every = int(co[13])  # TERMS_EVERY: the terms and torques (runs 0..3) only every this many passes
+    if every > 1:
+        c = int(st[38]) - 1  # S_TERMS_N
+        if c <= 0:
+            c = every
+        else:
+            run = 4
+        st[38] = c
     while run < 6:
         eb = 111
         cnt = 3

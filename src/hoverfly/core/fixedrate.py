@@ -47,6 +47,7 @@ TPA_S = const(9)
 TPA_P = const(10)
 MOTORS = const(11)
 DT_NOMINAL = const(12)
+TERMS_EVERY = const(13)  # the PID terms and torques written out every this many passes (0 or 1: every pass)
 AXIS = const(16)  # three axes of AX_SIZE from here
 AX_SIZE = const(20)
 KP_M = const(0)
@@ -88,6 +89,7 @@ S_INV_DT = const(27)
 S_TPA = const(28)
 S_SAT = const(29)
 S_MIX = const(30)
+S_TERMS_N = const(38)  # passes left until the PID terms and torques are written out again
 ST_SIZE = const(80)  # 40.. the viper twin's decoded inputs and staged outputs
 
 # flags argument
@@ -184,6 +186,17 @@ def rate_pass(co, st, io, flags, dt_us):
     Returns bit 0: saturated, bit 1: the TPA factor changed (st[S_TPA], Q15)."""
     fin, gyro, rate, stick, terms, torque, motor = io
     mul = _mul
+    # The PID terms and the torques are outputs for the log and the maintenance telemetry only: written
+    # every co[TERMS_EVERY] passes (FixedRate.terms_every: every pass while a log runs).
+    terms_now = True
+    every = co[TERMS_EVERY]
+    if every > 1:
+        c = st[S_TERMS_N] - 1
+        if c <= 0:
+            c = every
+        else:
+            terms_now = False
+        st[S_TERMS_N] = c
     # dt: clamped, 1/dt worked out when it changes
     if dt_us <= 0:
         dt_us = co[DT_NOMINAL]
@@ -309,11 +322,12 @@ def rate_pass(co, st, io, flags, dt_us):
         elif out < -lim:
             out = -lim
         st[sb + S_OUT] = out
-        terms[k] = p * _INV16
-        terms[k + 3] = i * _INV26
-        terms[k + 6] = d * _INV16
-        terms[k + 9] = f * _INV16
-        torque[k] = out * _INV16
+        if terms_now:
+            terms[k] = p * _INV16
+            terms[k + 3] = i * _INV26
+            terms[k + 6] = d * _INV16
+            terms[k + 9] = f * _INV16
+            torque[k] = out * _INV16
     # the mixer: torques to motors, desaturated as core/mixer.py does
     r = st[S_OUT]
     pt = st[ST_AX + S_OUT]
@@ -383,6 +397,11 @@ class FixedRate:
         self._tab = array("i", [0] * _viper.TAB_SIZE) if HAS_ACCEL else None
         self._controller = None
         self._mixer = None
+
+    def terms_every(self, passes):
+        """Write the PID terms and torques (signals.pid_terms, torque_norm) out every `passes` passes; 1:
+        every pass, as a log needs them. Only outputs: the controller and the mixer do not read them."""
+        self.co[TERMS_EVERY] = passes
 
     def configure(self, controller, mixer, loop_hz, pid_math, signals):
         supported = not mixer.servo_yaw and mixer.n <= 8

@@ -7,7 +7,7 @@ reads the parameters into every stage (again whenever they change while disarmed
 
 from array import array
 
-from hoverfly.compat import attr_room, ticks_diff
+from hoverfly.compat import attr_room, const, ticks_diff
 from hoverfly.core.arming import (
     AUTOPILOT,
     BATTERY_CRITICAL,
@@ -68,6 +68,10 @@ from hoverfly.core.receiver import Receiver
 from hoverfly.core.scheduler import PS_PASSES, Scheduler
 from hoverfly.core.scheduler import fast_pass_stats as _pass_stats
 from hoverfly.core.signals import Signals
+
+# With no log running, the fixed controller writes its PID terms and torques out every this many passes
+# (the maintenance telemetry reads them: at 1 kHz, at most 8 ms old).
+TERMS_IDLE_PASSES = const(8)
 
 
 class Flight:
@@ -177,6 +181,7 @@ class Flight:
         self.controller.configure(p, hz)
         self.mixer.configure(p)
         self._fixed_on = self.fixed.configure(self.controller, self.mixer, hz, p.get("pid_math"), self.signals)
+        self.logging_changed()
         # The IMU filters go with the rate loop: anywhere for "fixed", on "auto" where their viper twin loads.
         self._fixed_imu_on = self.fixed_imu.configure(
             self.gyro_filter, self.accel_filter, self.signals, self.calibration.bias_rad_s,
@@ -209,6 +214,13 @@ class Flight:
         self._airmode_from_switch()
         self._route()
         self._configured_at = p.changed
+
+    def logging_changed(self):
+        """The logger started or stopped its every-pass calls (Logger._hand_over; and configure): the fixed
+        controller writes its PID terms and torques out every pass while a log runs, else every
+        TERMS_IDLE_PASSES passes, for the maintenance telemetry that reads them (about 3k instructions
+        a pass on MicroPython when written every pass)."""
+        self.fixed.terms_every(1 if self.log_pass is not None else TERMS_IDLE_PASSES)
 
     def _att_restart(self):
         """The estimator's gyro average starts again (after an update, or a new att_rate_hz)."""

@@ -618,6 +618,7 @@ class Logger:
         f = self.flight
         f.log_pass = self.update if self.active else None
         f.log_rc = self._fast_rc if self._fast and self.active else None
+        f.logging_changed()
 
     def full_pass_next(self):
         """The next logged pass takes update()'s full path, which looks at the parameters and the
