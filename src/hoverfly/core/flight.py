@@ -252,7 +252,7 @@ class Flight:
         dt_us = ticks_diff(now_us, self._last_us)
         self.pass_dt_us = dt_us
         self._last_us = now_us
-        _pass_stats(self._pass_words, dt_us)  # the scheduler's pass statistics (Scheduler.pass_started's work)
+        _pass_stats(self._pass_words, dt_us)  # the scheduler's pass statistics (Scheduler.stats)
         self._sense(now_us, dt_us)  # 1. IMU and filters, 2. estimator
         # 3. commander: the pilot's sticks, or the failsafe's
         sp = self._sp

@@ -106,12 +106,6 @@ class Scheduler:
         self.next_due_us = now_us
         self._started = True
 
-    def pass_started(self, now_us, cycle_us):
-        """Record the pass starting now, cycle_us after the last one. (Flight.step calls fast_pass_stats on
-        `stats` itself, with its dt.)"""
-        self._last_us = now_us
-        fast_pass_stats(self.stats, cycle_us)
-
     def pass_took(self, duration_us):
         if duration_us > self.period_us:
             self.overruns += 1
@@ -212,7 +206,7 @@ class HeapWatch:
         self._passes = 0  # passes since the last collection
         self._since = 0  # passes since the last look
         self._check_in = GC_CHECK_FIRST
-        self._rate = -1  # bytes a pass since the last collection; -1 until measured
+        self._rate = 0  # bytes a pass since the last collection (0: none measured, or none used)
         self._cycle_rate = 0  # bytes a pass over the last whole collection cycle (0: none yet)
 
     def collected(self):
@@ -223,8 +217,9 @@ class HeapWatch:
         free = self.mem_free()
         self.free_min = free // self.fraction
         self._free_after = free
+        self._free_last = free
         self._passes = 0
-        self._rate = -1
+        self._rate = 0
         self._seen(free)
 
     def due(self):
@@ -247,17 +242,12 @@ class HeapWatch:
         return False
 
     def _seen(self, free):
-        self._free_last = free
         self._since = 0
         rate = self._rate
         if rate < self._cycle_rate:
             rate = self._cycle_rate
-        if rate < 0 or (rate == 0 and self._passes == 0):
-            n = GC_CHECK_FIRST
-        elif rate == 0:
-            n = GC_CHECK_MAX
-        else:
-            n = (free - self.free_min) // (2 * rate)
+        # halfway to the threshold at that rate; a pass that allocates nothing, GC_CHECK_MAX
+        n = (free - self.free_min) // (2 * rate) if rate > 0 else GC_CHECK_MAX
         horizon = self._passes if self._passes > GC_CHECK_FIRST else GC_CHECK_FIRST
         if n > horizon:
             n = horizon
