@@ -183,7 +183,6 @@ def install_stages(board, f):
         probe(f.output, "update", "output.update", 3)
     probe(f.motor_test, "update", "motor_test", 5)
     probe(board, "write_motors", "write_motors", 2)
-    probe(f.scheduler, "pass_started", "scheduler.pass_started", 1)
     probe(f.scheduler, "run", "scheduler.run (+tasks)", 1)
 
 
@@ -198,8 +197,7 @@ def install_nested(board, f):
     inside a probed call would add its walk to the outer figure."""
     probe(f.receiver, "update", "receiver.update", 2, True)
     probe(f.rc, "fs_switch_in", "rc.fs_switch_in", 1, True)
-    probe(f.rc, "new_frame", "rc.new_frame", 1, True)
-    probe(f.receiver, "copy_channels", "receiver.copy_channels", 1, True)
+    probe(f.rc, "new_frame", "rc.new_frame", 2, True)  # the pilot's frame, and the receiver's copied into it
     probe(f.arming, "on_switch", "arming.on_switch", 2, True)
     probe(f.receiver, "telemetry_due", "receiver.telemetry_due", 1, True)
     probe(f.faults, "check_imu", "faults.check_imu", 2, True)

@@ -130,8 +130,6 @@ class Receiver:
         self._cells = 0
         self._tlm_next_us = 0
         self._tlm_buf = bytearray(64)
-        self._out = None  # copy_channels: the array it last filled and a view of it
-        self._out_view = None
         # read buffers
         self._buf = bytearray(_READ_BYTES)
         self._edges = array("i", [0] * (2 * _EDGES_MAX))
@@ -189,8 +187,8 @@ class Receiver:
         # Few locals here: a bytecode function whose frame (locals and value stack) passes 11 machine
         # words takes it from the heap on every call on MicroPython (docs/pico.md); the rarer paths are
         # methods of their own.
-        dec = self.decoder
         if self.serial:
+            dec = self.decoder
             n = board.read_rx(self._buf)
             new = 0
             if n > 0:  # many polls find nothing, and then the codec's counts cannot have moved either
@@ -324,16 +322,6 @@ class Receiver:
     def frame_age_us(self, now_us):
         """Time since the last valid frame."""
         return ticks_diff(now_us, self.last_frame_us)
-
-    def copy_channels(self, out):
-        """The last valid frame's 16 channels (µs) into out[0..15] (an array("H") of 16 or more)."""
-        view = self._out_view
-        if view is None or self._out is not out:
-            # A memoryview's slice store is one copy and allocates nothing on MicroPython (an array's
-            # slice store makes a slice object; an element loop is five times slower): bench/rc_input.py.
-            self._out = out
-            view = self._out_view = memoryview(out)
-        view[0:CHANNELS] = self.channels_us
 
     # -------------------------------------------------------------- telemetry
     def telemetry_due(self, now_us):

@@ -123,12 +123,6 @@ class ReplayReceiver:
         self.new_frames = 1
         return 1
 
-    def copy_channels(self, out):
-        src = self.channels_us
-        n = len(out) if len(out) < len(src) else len(src)
-        for i in range(n):
-            out[i] = src[i]
-
     def telemetry_due(self, now_us):
         return False
 
