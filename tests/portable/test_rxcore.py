@@ -91,8 +91,7 @@ def test_a_copy_in_progress_is_not_taken_until_core_1_has_finished_it():
 def test_counters_wrap_without_losing_a_frame():
     _, rx, core = _pair()
     b = FakeBoard()
-    core._frames = MASK  # one frame before the wrap
-    core.link.words[W_FRAMES] = MASK
+    core.link.words[W_FRAMES] = MASK  # one frame before the wrap
     rx.decoder.frames = MASK
     for k in range(3):
         b.queue(crsf.encode_rc_frame(CH))

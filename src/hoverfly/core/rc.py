@@ -139,7 +139,7 @@ def rc_frame(fco, last, channels_us, st, src_us):
     (unless they are the same array), which sticks moved since the last frame (their µs into `last`),
     in fixed point their Q20 into st[S_X..] (roll, pitch, yaw: _stick_q, pitch negated: stick forward is
     nose down in FRD; the throttle is left to RcInput._throttle), and which mode switches are in range.
-    The viper twin accel/rc.py `rc_frame` stands in for it on MicroPython (test_rc_modes checks both)."""
+    The viper twin accel/rc.py `rc_frame` stands in for it on MicroPython (test_rc_fixed checks both)."""
     if src_us is not channels_us:
         for i in range(CHANNELS):
             channels_us[i] = src_us[i]

@@ -68,7 +68,6 @@ class RxCore:
         self.decoder = decoder
         self._buf = bytearray(64)
         self._chan = memoryview(link.channels_us)
-        self._frames = 0
         self._seen = -1  # the codec's counts at the last publish, summed (publish only when one moved)
         self._crsf = hasattr(decoder, "link_stats_frames")
 
@@ -99,8 +98,7 @@ class RxCore:
         w[W_SEQ] = (seq + 1) & MASK  # odd: a reader that sees this drops its copy
         if new:
             self._chan[0:CHANNELS] = dec.channels_us
-            self._frames = (self._frames + new) & MASK
-            w[W_FRAMES] = self._frames
+            w[W_FRAMES] = (w[W_FRAMES] + new) & MASK
             w[W_FAILSAFE] = 1 if dec.failsafe else 0
             w[W_LOST] = 1 if dec.frame_lost else 0
         w[W_CRC] = dec.crc_errors & MASK
