@@ -3,7 +3,8 @@
 Under `--firmware micropython` the scripted companion (sim/companion.py) calls
 `BridgedFlight.on_msp_rc`; the frame crosses at once, the firmware's own autopilot takes or
 refuses it, and the answer and the autopilot's state come back. The autopilot scenario must
-fly as it does in-process: the same refusals, the same events, the same report.
+fly as it does in-process (where the companion's MSP bytes go through the links task): the
+same refusals, the same events, the same report within a links period.
 """
 
 import json
@@ -37,13 +38,19 @@ def test_autopilot_scenario_under_micropython_matches_the_cpython_flight(capsys)
     cp = fly("autopilot", duration_s=12.5)
     mp = flown(capsys, "--scenario", "autopilot", "--duration", "12.5", "--firmware", "micropython",
                "--micropython", MICROPYTHON)
-    assert mp["autopilot"] == cp["autopilot"]
-    ap = mp["autopilot"]
+    # In process the companion's frames are MSP bytes answered by the links task (within its 10 ms
+    # period); across the bridge each crosses at once as an MSP_RC frame. The same frames sent, the
+    # same refusals and outcome; a frame meeting a state change in that period may fall either side.
+    ap, cap = mp["autopilot"], cp["autopilot"]
+    assert (ap["sent"], sorted(ap["refused"]), ap["state"], ap["privilege"]) == \
+        (cap["sent"], sorted(cap["refused"]), cap["state"], cap["privilege"])
+    assert abs(ap["taken"] - cap["taken"]) <= 2 and cap["unanswered"] <= 1
     assert ap["taken"] > 0 and ap["refused"] and ap["sent"] == mp["firmware"]["msp_rc"]
     assert ap["state"] == "off" and ap["privilege"] == 16  # switched off, the throttle latched
     names = [e[0] for e in events(mp)]
     assert "autopilot_enabled" in names and "armed" in names
-    assert events(mp) == events(cp)
+    assert [(e[0], e[2]) for e in events(mp)] == [(e[0], e[2]) for e in events(cp)]
+    assert all(abs(m[1] - c[1]) <= 0.015 for m, c in zip(events(mp), events(cp)))
     assert abs(mp["tilt_rms_deg"] - cp["tilt_rms_deg"]) <= 0.05
     assert abs(mp["altitude_m"]["max"] - cp["altitude_m"]["max"]) <= 0.05
 

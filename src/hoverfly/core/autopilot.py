@@ -73,11 +73,35 @@ R_SILENT = "autopilot timed out: switch the autopilot switch off and run the pro
 R_SHORT = "MSP RC needs at least 4 channels"
 R_RANGE = "MSP RC channel out of range 800..2200 us"
 
+# What became of the companion's last MSP RC frame (`last_result`, readable over MSP as
+# MSP2_HOVERFLY_AUTOPILOT): 0 taken, else why it was refused. RESULT_TEXTS holds on_msp_rc's
+# reason for each, so a companion reading the code over the wire words it as the flight did.
+RES_TAKEN = const(0)
+RES_NO_AUTOPILOT = const(1)
+RES_SWITCH_OFF = const(2)
+RES_WAIT = const(3)
+RES_SILENT = const(4)
+RES_SHORT = const(5)
+RES_RANGE = const(6)
+RES_ARM_REFUSED = const(7)  # the frame was taken, but its arm request was refused (`last_arm_reason`)
+RESULT_TEXTS = (None, R_NO_AUTOPILOT, R_SWITCH_OFF, R_WAIT, R_SILENT, R_SHORT, R_RANGE, "arming refused")
+
+# Why the throttle is latched (`latch_cause`, while latch_norm >= 0)
+LATCH_NONE = const(0)
+LATCH_HARD = const(1)  # hard override: the autopilot switch went off while it flew
+LATCH_TIMEOUT = const(2)  # the autopilot fell silent while armed
+
 _SOFT_ROLL = const(1)
 _SOFT_PITCH = const(2)
 _SOFT_THROTTLE = const(4)
 
 _MAPS = {"AETR": (0, 1, 3, 2), "TAER": (1, 2, 3, 0), "RETA": (3, 2, 1, 0)}  # roll, pitch, yaw, throttle
+
+
+def arm_refusal_text(bit):
+    """on_msp_rc's reason when the autopilot's arm request meets arming reason `bit`."""
+    r = REASONS.get(bit)
+    return "arming refused: " + (r[1] if r else "reason %d" % bit)
 
 
 def _stick(us):
@@ -98,6 +122,9 @@ class Autopilot:
         self.frames = 0  # accepted MSP RC frames
         self.rejected = 0  # frames refused (no privilege, malformed)
         self.latch_norm = -1.0  # >= 0: the pilot's throttle is held at this
+        self.latch_cause = LATCH_NONE  # why it is held (LATCH_*)
+        self.last_result = RES_TAKEN  # RES_*: what became of the last MSP RC frame
+        self.last_arm_reason = -1  # with RES_ARM_REFUSED: the arming reason bit that refused it
         self.soft = 0
         # configuration
         self.ch = 7
@@ -166,6 +193,7 @@ class Autopilot:
                 if st == AP_ENABLED and armed and self.has_frame:
                     # Hard override: the pilot's sticks now, the throttle held at the autopilot's last.
                     self.latch_norm = self.throttle_norm
+                    self.latch_cause = LATCH_HARD
                     self.events.record(now_us, EV_AUTOPILOT_OVERRIDE, OVR_HARD)
                 self.events.record(now_us, EV_AUTOPILOT_DISABLED, DIS_SWITCH_OFF)
             self.state = AP_OFF
@@ -206,23 +234,21 @@ class Autopilot:
         """MSP SET_RAW_RC from the companion. None when taken, else why it was refused."""
         st = self.state
         if st != AP_ENABLED:
-            self.rejected += 1
             if self.ch <= 0:
-                return R_NO_AUTOPILOT
+                return self._refused(RES_NO_AUTOPILOT)
             if st == AP_OFF:
-                return R_SWITCH_OFF
+                return self._refused(RES_SWITCH_OFF)
             if st == AP_WAIT:
-                return R_WAIT
-            return R_SILENT
+                return self._refused(RES_WAIT)
+            return self._refused(RES_SILENT)
         if count < 4:
-            self.rejected += 1
-            return R_SHORT
+            return self._refused(RES_SHORT)
         n = count if count < len(channels_us) else len(channels_us)
         for i in range(n):
             v = channels_us[i]
             if v < 800 or v > 2200:
-                self.rejected += 1
-                return R_RANGE
+                return self._refused(RES_RANGE)
+        self.last_result = RES_TAKEN
         m = self.map
         s = self.stick_norm
         s[0] = _stick(channels_us[m[0]])
@@ -243,8 +269,9 @@ class Autopilot:
                 if not arming.armed:
                     blocked = arming.try_arm(now_us, SOURCE_AUTOPILOT, 1 << AUTOPILOT)
                     if blocked:
-                        r = REASONS.get(first_reason(blocked))
-                        return "arming refused: " + (r[1] if r else "reason %d" % first_reason(blocked))
+                        self.last_result = RES_ARM_REFUSED
+                        self.last_arm_reason = first_reason(blocked)
+                        return arm_refusal_text(self.last_arm_reason)
         else:
             self._msp_arm_was_on = False
             if arming.armed:
@@ -252,6 +279,11 @@ class Autopilot:
                 if self._msp_disarm_frames >= self.disarm_frames_needed:
                     arming.disarm(now_us, DISARM_COMMAND)
         return None
+
+    def _refused(self, result):
+        self.rejected += 1
+        self.last_result = result
+        return RESULT_TEXTS[result]
 
     # ----------------------------------------------------------------- each pass
     def update(self, now_us, armed):
@@ -266,6 +298,7 @@ class Autopilot:
             self.state = AP_SILENT
             if armed:
                 self.latch_norm = self.throttle_norm
+                self.latch_cause = LATCH_TIMEOUT
             self.has_frame = False
             self.soft = 0
             self.events.record(now_us, EV_AUTOPILOT_DISABLED, DIS_TIMEOUT)

@@ -11,12 +11,16 @@ Writes: SET_RAW_RC goes to flight.on_msp_rc (the autopilot source, any time); SE
 SET_MOTOR, ACC_CALIBRATION, EEPROM_WRITE and REBOOT are refused while armed; SET_MOTOR goes to
 flight.motor_test.request with props_off = this session's SET_ARMING_DISABLED(1) (the
 configurator's "I understand the risks" switch), which also holds config_session bit 2.
+SET_MODE_RANGE (refused while armed) writes a box's range parameters through params.update;
+MSP2_HOVERFLY_AUTOPILOT (0x3F00) reports seed 004's autopilot privilege state (docs/msp.md).
 """
 
 from struct import pack
 
 from hoverfly import VERSION
+from hoverfly.compat import ticks_diff
 from hoverfly.core.arming import REASONS
+from hoverfly.core.autopilot import AP_ENABLED, LATCH_HARD
 from hoverfly.core.control import MODE_ANGLE, MODE_HORIZON
 from hoverfly.core.failsafe import IDLE
 from hoverfly.core.scheduler import PS_CYCLE
@@ -34,6 +38,7 @@ MSP_ACC_TRIM = 240  # Betaflight msp_protocol.h; yamspy's basic_info asks for it
 
 # The modes hoverfly reports (MSP_BOXIDS / BOXNAMES order; STATUS mode_flags bit = index here).
 BOXES = ((0, "ARM"), (1, "ANGLE"), (2, "HORIZON"), (28, "AIR MODE"), (27, "FAILSAFE"))
+_RANGE_PARAMS = ("arm", "angle", "horizon", "airmode", "fs_switch")  # each box's <key>_ch/_min_us/_max_us
 ARMING_FLAG_COUNT = 31  # hoverfly's reasons run to bit 30 (arming.py)
 
 IDENTITY = {
@@ -169,6 +174,13 @@ class MspServer:
             return pack("<hh", int(p.get("acc_trim_pitch") * 10.0), int(p.get("acc_trim_roll") * 10.0))
         if cmd == msp.MSP_SET_RAW_RC:
             return self._set_raw_rc(payload, length)
+        if cmd == msp.MSP2_HOVERFLY_AUTOPILOT:
+            return self._autopilot()
+        if cmd == msp.MSP_SET_MODE_RANGE:
+            # SAFETY: a mode range moved under a switch can arm or change mode in flight: not while armed.
+            if f.arming.armed:
+                return self._refuse("refused while armed")
+            return self._set_mode_range(payload, length)
         if cmd == msp.MSP_SET_ARMING_DISABLED:
             disable, _ = msp.unpack_set_arming_disabled(payload, length)
             self.arming_disabled = disable != 0
@@ -256,14 +268,81 @@ class MspServer:
         return msp.pack_rc_tuning(v)
 
     def _mode_ranges(self):
+        """One fixed slot per box, in BOXES order (slot 0 ARM ...), so what SET_MODE_RANGE wrote reads
+        back in the slot it names; a box without an AUX channel (ch < 5) is an unused slot (all zero)."""
         p = self.flight.params
         ranges = []
-        for box_id, key in ((0, "arm"), (1, "angle"), (2, "horizon")):
+        for k in range(len(BOXES)):
+            key = _RANGE_PARAMS[k]
             ch = p.get(key + "_ch")
             if ch >= 5:
-                ranges.append((box_id, ch - 5, msp.step_of_us(p.get(key + "_min_us")),
+                ranges.append((BOXES[k][0], ch - 5, msp.step_of_us(p.get(key + "_min_us")),
                                msp.step_of_us(p.get(key + "_max_us"))))
+            else:
+                ranges.append((0, 0, 0, 0))
         return msp.pack_mode_ranges(ranges)
+
+    def _set_mode_range(self, payload, length):
+        """MSP_SET_MODE_RANGE: a box's AUX channel and range into its parameters (<key>_ch, _min_us,
+        _max_us) through params.update, the one checked entry point. hoverfly keeps one range per box:
+        a non-empty range sets the box's range whatever slot it names; an empty one (start >= end)
+        clears the box (ch 0) in the box's own slot and is an unused slot anywhere else (Betaflight's
+        configurator writes every slot, unused ones as box 0 with an empty range)."""
+        r = msp.unpack_set_mode_range(payload, length)
+        if r is None:
+            return self._refuse("SET_MODE_RANGE needs slot, box, aux channel, start and end (5 bytes)")
+        slot, box_id, aux, start, end, logic, linked = r
+        if slot >= msp.MODE_RANGE_SLOTS:
+            return self._refuse("SET_MODE_RANGE slot %d: there are %d" % (slot, msp.MODE_RANGE_SLOTS))
+        k = -1
+        for i in range(len(BOXES)):
+            if BOXES[i][0] == box_id:
+                k = i
+        if k < 0:
+            return self._refuse("SET_MODE_RANGE box %d: hoverfly's boxes are %s" % (
+                box_id, ", ".join("%d %s" % b for b in BOXES)))
+        if start > msp.MODE_RANGE_MAX_STEP or end > msp.MODE_RANGE_MAX_STEP:
+            return self._refuse("SET_MODE_RANGE steps must be 0..48 (900..2100 us)")
+        if logic > 1 or linked != 0:
+            return self._refuse("SET_MODE_RANGE: linked modes are not supported")
+        key = _RANGE_PARAMS[k]
+        if start >= end:
+            if slot != k:
+                return b""  # an unused slot
+            err = self.flight.params.update(((key + "_ch", 0),))
+        else:
+            err = self.flight.params.update(((key + "_ch", aux + 5), (key + "_min_us", msp.us_of_step(start)),
+                                             (key + "_max_us", msp.us_of_step(end))))
+        return b"" if err is None else self._refuse(err)
+
+    def _autopilot(self):
+        """MSP2_HOVERFLY_AUTOPILOT: seed 004's privilege state, for the companion computer."""
+        f = self.flight
+        ap = getattr(f, "autopilot", None)
+        if ap is None:
+            return self._refuse("this firmware has no autopilot link")
+        if f.failsafe.state != IDLE:
+            flier = 3  # the receiver failsafe outranks the autopilot
+        elif getattr(getattr(f, "motor_test", None), "active", False):
+            flier = 4
+        elif not f.arming.armed:
+            flier = 0
+        elif ap.in_control():
+            flier = 2
+        else:
+            flier = 1
+        latched = ap.latch_norm >= 0.0
+        latch = ap.latch_cause if latched else 0
+        soft = ap.soft if ap.state == AP_ENABLED else 0
+        override = 2 if latch == LATCH_HARD else (1 if soft else 0)
+        age_ms = 0xFFFF
+        if ap.frames > 0:
+            age_ms = ticks_diff(f.board.now_us(), ap.last_msp_us) // 1000
+        return msp.pack_autopilot(ap.state, ap.privilege(), flier, override, soft, latch,
+                                  1000 + int(ap.latch_norm * 1000.0 + 0.5) if latched else 0,
+                                  1000 + int(ap.throttle_norm * 1000.0 + 0.5) if ap.has_frame else 0,
+                                  ap.last_result, ap.last_arm_reason if ap.last_arm_reason >= 0 else 255,
+                                  age_ms, ap.frames, ap.rejected)
 
     def _set_raw_rc(self, payload, length):
         f = self.flight

@@ -197,6 +197,10 @@ class BridgeDecoder:
     Complete good frames wait in a small queue (`depth`, oldest dropped and counted in
     `overruns` when it is full); `pop()` returns the kind (-1 when none is waiting) and
     leaves the payload in `payload[0:length]`.
+
+    A frame is assembled in a buffer of its own (`_rx`) and enters the queue only once its
+    CRC has passed, by swapping buffers with the slot it takes: whatever the queue holds, a
+    frame still arriving or one that fails its CRC never writes over a waiting frame.
     """
 
     def __init__(self, depth=4):
@@ -210,6 +214,11 @@ class BridgeDecoder:
         self.payload = bytearray(MAX_PAYLOAD)
         self.length = 0
         self._q = [bytearray(MAX_PAYLOAD + OVERHEAD) for _ in range(depth)]
+        # SAFETY: the frame being received lives here until its CRC passes. It used to be
+        # written straight into the queue's next slot, which on a full queue is the oldest
+        # waiting frame: a frame that then failed its CRC had already overwritten one that
+        # was about to be delivered (wrong sensor data or motor commands on a HIL link).
+        self._rx = bytearray(MAX_PAYLOAD + OVERHEAD)
         self._qlen = [0] * depth
         self._qkind = [0] * depth
         self._head = 0
@@ -258,7 +267,7 @@ class BridgeDecoder:
                     state = _BODY
             else:
                 if self._got < self._want:
-                    self._q[self._head][self._got] = b
+                    self._rx[self._got] = b
                     self._got += 1
                     self._crc = t[self._crc ^ b]
                 else:
@@ -274,6 +283,10 @@ class BridgeDecoder:
     def _push(self):
         self.frames += 1
         h = self._head
+        # The checked frame takes slot h by a swap (no copy, no allocation); the slot's old
+        # buffer (free, or the oldest frame a full queue drops) receives the next frame.
+        q = self._q
+        q[h], self._rx = self._rx, q[h]
         self._qlen[h] = self._want
         self._qkind[h] = self._kind
         h += 1

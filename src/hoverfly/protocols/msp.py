@@ -34,6 +34,7 @@ MSP_BUILD_INFO = const(5)
 MSP_NAME = const(10)
 MSP_SET_NAME = const(11)
 MSP_MODE_RANGES = const(34)
+MSP_SET_MODE_RANGE = const(35)
 MSP_FEATURE_CONFIG = const(36)
 MSP_SET_FEATURE_CONFIG = const(37)
 MSP_RX_CONFIG = const(44)
@@ -63,6 +64,9 @@ MSP_SET_MOTOR = const(214)
 MSP_EEPROM_WRITE = const(250)
 MSP_V2_FRAME = const(255)  # v1 cmd 255: a v2 frame inside
 MSP2_SEND_DSHOT_COMMAND = const(0x3003)
+# hoverfly's own (docs/msp.md "hoverfly commands"): at the top of the 0x3000 block, far from the ids
+# Betaflight hands out from 0x3000 upwards, so a Betaflight client never meets it by accident.
+MSP2_HOVERFLY_AUTOPILOT = const(0x3F00)
 
 # Directions are the wire characters.
 DIR_REQUEST = const(0x3C)  # '<'
@@ -913,6 +917,69 @@ def pack_mode_ranges(ranges, slots=20):
 
 def unpack_mode_ranges(payload):
     return [tuple(payload[4 * k:4 * k + 4]) for k in range(len(payload) // 4)]
+
+
+MODE_RANGE_SLOTS = const(20)  # Betaflight's MAX_MODE_ACTIVATION_CONDITION_COUNT
+MODE_RANGE_MAX_STEP = const(48)  # 2100 us
+
+
+def pack_set_mode_range(index, box_id, aux, start_step, end_step, logic=None, linked_box=None):
+    """MSP_SET_MODE_RANGE request: u8 slot, u8 permanent box id, u8 aux channel index (0 = AUX1),
+    u8 start step, u8 end step; Betaflight 3.4+ configurators add u8 mode logic (0 OR, 1 AND) and
+    u8 linked box id (0 = none). Layout from Betaflight's msp.c."""
+    out = pack("<BBBBB", _u8(index), _u8(box_id), _u8(aux), _u8(start_step), _u8(end_step))
+    if logic is not None:
+        out += pack("<BB", _u8(logic), _u8(linked_box or 0))
+    return out
+
+
+def unpack_set_mode_range(payload, length=-1):
+    """(slot, box id, aux index, start step, end step, logic, linked box) of a SET_MODE_RANGE request;
+    logic and linked box read as 0 when the short (5-byte) form came. None when under 5 bytes."""
+    if length < 0:
+        length = len(payload)
+    if length < 5:
+        return None
+    logic = payload[5] if length > 5 else 0
+    linked = payload[6] if length > 6 else 0
+    return payload[0], payload[1], payload[2], payload[3], payload[4], logic, linked
+
+
+# MSP2_HOVERFLY_AUTOPILOT reply: seed 004's privilege state (core/autopilot.py) for the companion.
+AUTOPILOT_FORMAT = "<BBBBBBHHBBHII"
+AUTOPILOT_SIZE = const(22)
+AUTOPILOT_FIELDS = ("state", "privilege", "flier", "override", "soft_axes", "latch", "latch_throttle_us",
+                    "throttle_us", "last_result", "last_arm_reason", "last_frame_age_ms", "frames", "rejected")
+FLIER_NAMES = ("nobody", "pilot", "autopilot", "failsafe", "motor_test")  # "flier" values
+OVERRIDE_KIND_NAMES = ("none", "soft", "hard")  # "override" values
+
+
+def pack_autopilot(state, privilege, flier, override, soft_axes, latch, latch_throttle_us, throttle_us,
+                   last_result, last_arm_reason, last_frame_age_ms, frames, rejected):
+    """MSP2_HOVERFLY_AUTOPILOT reply (22 bytes): u8 autopilot state (0 off, 1 waiting for the arm
+    switch, 2 enabled, 3 silent), u8 privilege bits (1 RC accepted, 2 may arm, 4 in control, 8 soft
+    override, 16 throttle latched), u8 who flies (FLIER_NAMES), u8 override kind (0 none, 1 soft,
+    2 hard), u8 soft-override axes (1 roll, 2 pitch, 4 throttle cap), u8 latch cause (0 none, 1 hard
+    override, 2 autopilot timeout), u16 latched throttle us (0 = none), u16 the autopilot's last
+    throttle us (0 = no frame since enabled), u8 last MSP RC result (0 taken, else the refusal code),
+    u8 arming reason bit that refused its last arm request (255 none), u16 ms since its last taken
+    frame (65535 = none or longer), u32 frames taken, u32 frames refused."""
+    return pack(AUTOPILOT_FORMAT, _u8(state), _u8(privilege), _u8(flier), _u8(override), _u8(soft_axes),
+                _u8(latch), _u16(latch_throttle_us), _u16(throttle_us), _u8(last_result),
+                _u8(last_arm_reason), _u16(last_frame_age_ms), _u32(frames), _u32(rejected))
+
+
+def unpack_autopilot(payload, length=-1):
+    """dict of AUTOPILOT_FIELDS; None when the payload is short (a later version may add fields)."""
+    if length < 0:
+        length = len(payload)
+    if length < AUTOPILOT_SIZE:
+        return None
+    values = unpack_from(AUTOPILOT_FORMAT, payload, 0)
+    out = {}
+    for k in range(len(AUTOPILOT_FIELDS)):
+        out[AUTOPILOT_FIELDS[k]] = values[k]
+    return out
 
 
 def pack_uid(uid0, uid1, uid2):

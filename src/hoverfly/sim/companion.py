@@ -3,11 +3,25 @@
 The scenario sets what it sends (`msp_rc = {roll, pitch, yaw, throttle, arm, rate_hz,
 hold_altitude_m}`, or `msp_rc = false` to fall silent); with `hold_altitude_m` it flies the
 throttle itself from the craft's altitude, as a companion with its own height sensor would.
-Each frame goes through the MSP codec (a SET_RAW_RC request, parsed back as the flight
-controller's MSP server parses it) and into `flight.on_msp_rc`, the seam the MSP server uses.
+
+With a board (the in-process flight), the companion is wired to the flight controller's
+CLI/MSP port as a real one would be to a UART: each frame is an MSP v1 SET_RAW_RC request in
+bytes, followed by an MSP2_HOVERFLY_AUTOPILOT poll, written into the board's serial seam
+(`CompanionPort` as board.serial); the flight's links task (core/links.py, `attach`) parses
+and answers them in its own time, and the companion reads the reply bytes back at its next
+tick. A `!` reply to SET_RAW_RC is a refusal; the poll answered after it says why (the
+autopilot's last result code, worded as core/autopilot.py words it).
+
+Without a board (the firmware bridge, sim/bridge.py: it carries no serial bytes) each frame
+goes through the MSP codec (a SET_RAW_RC request, parsed back as the MSP server parses it)
+and into `flight.on_msp_rc`, which the bridge sends across as an MSP_RC frame.
 It counts what was taken and why the rest was refused.
 """
 
+from hoverfly.core.autopilot import RES_ARM_REFUSED, RES_TAKEN, RESULT_TEXTS, arm_refusal_text
+from hoverfly.core.board import SERIAL_CONFIG
+from hoverfly.core.links import attach
+from hoverfly.errors import UserError
 from hoverfly.protocols import msp
 
 _MAPS = {"AETR": (0, 1, 3, 2), "TAER": (1, 2, 3, 0), "RETA": (3, 2, 1, 0)}  # roll, pitch, yaw, throttle
@@ -17,9 +31,55 @@ def _clamp(x, lo, hi):
     return lo if x < lo else (hi if x > hi else x)
 
 
+class CompanionPort:
+    """The wire between the companion and the flight controller's port `port`, in the board's serial
+    seam (read(port, buf) / write(port, data, n), as sim/server.py's TcpPorts): bytes the companion
+    wrote wait in `to_fc` until the links task reads them; the replies wait in `from_fc`."""
+
+    def __init__(self, port=SERIAL_CONFIG):
+        self.port = port
+        self.to_fc = bytearray()
+        self.from_fc = bytearray()
+        self.links = None  # the flight's core.links.ConfigLinks serving the port (wire_up)
+
+    def read(self, port, buf):
+        if port != self.port:
+            return 0
+        n = min(len(buf), len(self.to_fc))
+        buf[:n] = self.to_fc[:n]
+        del self.to_fc[:n]
+        return n
+
+    def write(self, port, data, n=-1):
+        if port != self.port:
+            return 0
+        if n < 0:
+            n = len(data)
+        self.from_fc += bytes(data[:n])
+        return n
+
+
+def wire_up(flight, board):
+    """Wire a companion to the in-process flight's CLI/MSP port and start its links task; the port."""
+    if board.serial is not None:
+        raise UserError("msp_rc: the CLI/MSP port is already served (hoverfly sim): the companion needs it")
+    port = CompanionPort()
+    board.serial = port
+    port.links = attach(flight, getattr(flight, "storage", None))
+    return port
+
+
 class Companion:
-    def __init__(self, flight, params, hover_guess=0.35):
+    def __init__(self, flight, params, hover_guess=0.35, board=None):
         self.flight = flight
+        # the in-process flight: MSP bytes through the board's serial port; else (bridge) on_msp_rc
+        self.port = wire_up(flight, board) if board is not None else None
+        self._replies = msp.MspParser(max_payload=64, queue_depth=16)
+        self._waiting_reason = 0  # SET_RAW_RC refusals whose poll reply is still to come
+        self._counted = 0  # the autopilot's frames + rejected at the last poll reply
+        self.status = None  # the last MSP2_HOVERFLY_AUTOPILOT reply (msp.unpack_autopilot)
+        self.answered = 0  # SET_RAW_RC replies read back
+        self.other_replies = []  # (direction, cmd, payload) of replies to requests it did not send itself
         self.hover_guess = hover_guess
         self.hold_altitude_m = None
         self._alt_i = 0.0
@@ -64,7 +124,9 @@ class Companion:
         return ch
 
     def tick(self, t, now_us, vehicle=None):
-        """Send the frames due by time t (s)."""
+        """Read the replies that came, then send the frames due by time t (s)."""
+        if self.port is not None:
+            self.read_replies()
         if not self.sending or t + 1e-9 < self._next_s:
             return
         if self.hold_altitude_m is not None and vehicle is not None:
@@ -77,20 +139,71 @@ class Companion:
         self._next_s += 1.0 / self.rate_hz
         if self._next_s <= t:
             self._next_s = t + 1.0 / self.rate_hz
-        # over the wire format and back, as the MSP server would see it
         payload = msp.pack_set_raw_rc(self.frame_us())
-        channels = msp.unpack_set_raw_rc(payload, len(payload))
         self.sent += 1
+        if self.port is not None:
+            # the request and a privilege poll, back to back in one write as a companion's UART sends them
+            self.port.to_fc += msp.encode_request(msp.MSP_SET_RAW_RC, payload)
+            self.port.to_fc += msp.encode_request(msp.MSP2_HOVERFLY_AUTOPILOT, b"", 2)
+            return
+        # the bridge: over the wire format and back, as the MSP server would see it
+        channels = msp.unpack_set_raw_rc(payload, len(payload))
         fn = getattr(self.flight, "on_msp_rc", None)
-        reason = "no MSP RC in this firmware" if fn is None else fn(now_us, channels, len(channels))
+        self._result("no MSP RC in this firmware" if fn is None else fn(now_us, channels, len(channels)))
+
+    def _result(self, reason):
         if reason is None:
             self.taken += 1
         else:
             self.refusals[reason] = self.refusals.get(reason, 0) + 1
 
+    def read_replies(self):
+        """Decode the reply bytes the flight controller wrote: SET_RAW_RC acks and refusals, polls."""
+        port = self.port
+        if not port.from_fc:
+            return
+        p = self._replies
+        p.feed(port.from_fc)
+        port.from_fc = bytearray()
+        while p.pop():
+            if p.direction == msp.DIR_REQUEST:
+                continue
+            if p.cmd != msp.MSP_SET_RAW_RC and p.cmd != msp.MSP2_HOVERFLY_AUTOPILOT:
+                self.other_replies.append((p.direction, p.cmd, p.message()))
+            elif p.cmd == msp.MSP_SET_RAW_RC:
+                self.answered += 1
+                if p.direction == msp.DIR_REPLY:
+                    self.taken += 1
+                else:
+                    self._waiting_reason += 1  # the poll after it says why
+            elif p.cmd == msp.MSP2_HOVERFLY_AUTOPILOT and p.direction == msp.DIR_REPLY:
+                st = msp.unpack_autopilot(p.payload, p.length)
+                if st is None:
+                    continue
+                counted = st["frames"] + st["rejected"]
+                fresh = counted != self._counted  # the autopilot saw a frame since the last poll
+                self._counted = counted
+                self.status = st
+                if self._waiting_reason:
+                    self._waiting_reason -= 1
+                    self._result(self._reason(st) if fresh else "refused by the MSP server")
+
+    @staticmethod
+    def _reason(st):
+        code = st["last_result"]
+        if code == RES_ARM_REFUSED:
+            return arm_refusal_text(st["last_arm_reason"])
+        if code == RES_TAKEN or code >= len(RESULT_TEXTS):
+            return "refused (result %d)" % code
+        return RESULT_TEXTS[code]
+
     def report(self):
+        if self.port is not None:
+            self.read_replies()
         ap = getattr(self.flight, "autopilot", None)
         r = {"sent": self.sent, "taken": self.taken, "refused": dict(self.refusals)}
+        if self.port is not None:
+            r["unanswered"] = self.sent - self.answered  # still on the wire when the flight ended
         if ap is not None:
             r["state"] = ap.state_name()
             r["privilege"] = ap.privilege()

@@ -503,7 +503,9 @@ class SimRun:
                 p.overrides_us[ch - 1] = 2000 if ev["autopilot_switch"] else 1000
         if "msp_rc" in ev:
             if self.companion is None:
-                self.companion = Companion(self.flight, self.params, p.hover_guess)
+                # in process: wired to the flight's CLI/MSP port (MSP bytes); the bridge takes MSP_RC frames
+                self.companion = Companion(self.flight, self.params, p.hover_guess,
+                                           board=self.board if self.firmware == "cpython" else None)
             self.companion.set(ev["msp_rc"], t)
         if "config_session" in ev:
             self.flight.config_session = ev["config_session"]
