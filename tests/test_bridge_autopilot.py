@@ -50,7 +50,7 @@ def test_autopilot_scenario_under_micropython_matches_the_cpython_flight(capsys)
     names = [e[0] for e in events(mp)]
     assert "autopilot_enabled" in names and "armed" in names
     assert [(e[0], e[2]) for e in events(mp)] == [(e[0], e[2]) for e in events(cp)]
-    assert all(abs(m[1] - c[1]) <= 0.015 for m, c in zip(events(mp), events(cp)))
+    assert all(abs(m[1] - c[1]) <= 0.015 for m, c in zip(events(mp), events(cp), strict=True))
     assert abs(mp["tilt_rms_deg"] - cp["tilt_rms_deg"]) <= 0.05
     assert abs(mp["altitude_m"]["max"] - cp["altitude_m"]["max"]) <= 0.05
 
