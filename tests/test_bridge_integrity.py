@@ -163,3 +163,94 @@ def test_under_micropython_a_bad_crc_after_a_full_queue_delivers_nothing_corrupt
     assert out.returncode == 0, out.stderr
     bad, kept = (int(x) for x in out.stdout.split())
     assert bad == 0 and kept == 300 * 4
+
+
+# ------------------------------------------------ both ends check what a good frame holds
+class _InProcessFirmware:
+    """A transport whose far end is bridge_fw.Firmware in this process; `tamper` may rewrite
+    an answer frame's payload (re-framed with a good CRC) before the host reads it."""
+
+    hello_timeout_s = boot_timeout_s = step_timeout_s = 5.0
+    label = "in-process"
+    runtime = "cpython"
+
+    def __init__(self, tamper=None):
+        from hoverfly.boards.bridge_fw import Firmware
+
+        self.fw = Firmware()
+        self.dec = B.BridgeDecoder()
+        self.tamper = tamper
+        self.inbox = bytearray()
+
+    def open(self):
+        pass
+
+    def write(self, data):
+        self.dec.feed(bytes(data))
+        while True:
+            kind = self.dec.pop()
+            if kind < 0:
+                return
+            n = self.fw.handle(kind, bytearray(self.dec.payload), self.dec.length)
+            answer = bytes(self.fw.out[:n])
+            if self.tamper is not None:
+                answer = self.tamper(answer[1], answer[B.HEADER : n - 1])
+            self.inbox += answer
+
+    def read(self, timeout_s):
+        data = bytes(self.inbox)
+        self.inbox.clear()
+        return data
+
+    def tail(self):
+        return ""
+
+    def close(self, timeout_s=1.0):
+        pass
+
+
+def _bridged(tamper_out):
+    from hoverfly.sim.bridge import BridgedFlight
+    from hoverfly.sim.runner import SimRun
+
+    run = SimRun("5inch", "hover", firmware="cpython")
+    steps = [0]
+
+    def tamper(kind, payload):
+        if kind == B.OUT:
+            steps[0] += 1
+            if steps[0] > 3:
+                payload = tamper_out(bytearray(payload))
+        return B.frame(kind, bytes(payload))
+
+    flight = BridgedFlight(run.board, run.params, firmware="cpython-process", transport=_InProcessFirmware(tamper))
+    return flight
+
+
+@pytest.mark.parametrize("tamper,why", [
+    (lambda p: p[: B.OUT_HEAD_SIZE + 8], "does not hold"),  # four motors claimed, two sent
+    (lambda p: p[:-1], "does not hold"),  # the event count's records cut short
+    (lambda p: p[:3], "short OUT frame"),
+    (lambda p: p[:1] + bytes([200]) + p[2:], "200 motors"),
+])
+def test_an_out_frame_with_a_good_crc_but_less_than_it_claims_stops_the_run_instead_of_using_stale_bytes(
+        tamper, why):
+    from hoverfly.errors import UserError
+
+    flight = _bridged(tamper)
+    flight.start(0)
+    for i in range(3):
+        flight.step(1000 * (i + 1))
+    with pytest.raises(UserError, match=why):
+        flight.step(4000)
+
+
+def test_a_boot_frame_of_the_wrong_length_is_refused_by_the_firmware():
+    from hoverfly.boards.bridge_fw import Firmware
+
+    fw = Firmware()
+    fw.handle(B.HELLO, bytearray(B.VERSION.encode()) + bytearray(B.MAX_PAYLOAD), len(B.VERSION))
+    n = fw.handle(B.BOOT, bytearray(B.MAX_PAYLOAD), 2)
+    d = B.BridgeDecoder()
+    assert d.feed(fw.out, n) == 1 and d.pop() == B.ERROR and "malformed BOOT" in d.text()
+    assert fw.flight is None

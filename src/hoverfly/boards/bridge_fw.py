@@ -120,6 +120,8 @@ class Firmware:
         if kind == B.PARAMS:
             return self._ack(self.set_params(bytes(payload[:length]).decode()))
         if kind == B.BOOT:
+            if length != 4:  # the rest of the buffer is an earlier frame's bytes
+                return self._error("malformed BOOT frame (%d bytes)" % length)
             return self._ack(self.boot(unpack_from("<I", payload, 0)[0]))
         if kind == B.QUIT:
             self.done = True

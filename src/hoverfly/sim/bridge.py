@@ -525,7 +525,29 @@ class BridgedFlight:
         self._send(B.finish(buf, B.STEP, n))
         if self._receive(B.STEP, self.transport.step_timeout_s) != B.OUT:
             self._fail("expected an OUT frame to %s" % self._what(B.STEP))
+        bad = self._out_malformed(self._dec)
+        if bad:
+            self._fail(bad)
         self._apply(self._dec.payload)
+
+    def _out_malformed(self, dec):
+        """Why an OUT frame (its CRC passed) cannot be applied, or None. The payload buffer still
+        holds earlier frames' bytes past dec.length, so a frame shorter than its own counts say
+        would hand stale motor values to the physics; more outputs than the signals hold would raise."""
+        n = dec.length
+        if n < B.OUT_HEAD_SIZE:
+            return "short OUT frame (%d bytes)" % n
+        p = dec.payload
+        motors = p[1]
+        servos = p[2]
+        if motors > len(self.signals.motor_out) or servos > len(self.signals.servo_norm):
+            return "OUT frame with %d motors and %d servos (at most %d and %d)" % (
+                motors, servos, len(self.signals.motor_out), len(self.signals.servo_norm))
+        k_at = B.OUT_HEAD_SIZE + 4 * (motors + servos + 4)
+        if n < k_at + 1 or n != k_at + 1 + p[k_at] * B.EVENT_SIZE:
+            return "OUT frame of %d bytes does not hold what its header says (%d motors, %d servos)" % (
+                n, motors, servos)
+        return None
 
     def on_msp_rc(self, now_us, channels_us, count):
         """The companion's MSP SET_RAW_RC: across at once, the firmware's autopilot takes it or
@@ -537,6 +559,8 @@ class BridgedFlight:
         if self._receive(B.MSP_RC, self.transport.step_timeout_s) != B.RC_ANSWER:
             self._fail("expected an RC_ANSWER frame to %s" % self._what(B.MSP_RC))
         dec = self._dec
+        if dec.length < B.RC_ANSWER_SIZE:
+            self._fail("short RC_ANSWER frame (%d bytes)" % dec.length)
         flags, state, privilege = unpack_from(B.RC_ANSWER_FMT, dec.payload, 0)
         self._flags(flags)
         self.autopilot.state = state
