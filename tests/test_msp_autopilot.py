@@ -274,3 +274,46 @@ def test_set_mode_range_refuses_a_bad_payload_box_or_range_and_changes_nothing(p
     assert b.ask(msp.MSP_SET_MODE_RANGE, payload) == [(msp.DIR_ERROR, msp.MSP_SET_MODE_RANGE, b"")]
     assert why in b.links.config.msp.last_error
     assert b.flight.params.values == before
+
+
+class BenchSerial:
+    """A pyserial-like port (in_waiting, read, write, flush) whose far end is the bench's links task."""
+
+    def __init__(self, bench):
+        self.bench = bench
+        self.port = "bench"
+
+    @property
+    def in_waiting(self):
+        return len(self.bench.port.from_fc)
+
+    def read(self, n):
+        data = bytes(self.bench.port.from_fc[:n])
+        del self.bench.port.from_fc[:n]
+        return data
+
+    def write(self, data):
+        self.bench.port.to_fc += data
+        self.bench.links.task(self.bench.board.now_us())  # the controller's links task runs
+
+    def flush(self):
+        pass
+
+
+def test_host_msp_client_reads_the_privilege_with_names():
+    pytest.importorskip("serial")
+    from hoverfly.gcs.link import MspClient
+
+    b = Bench()
+    client = MspClient(BenchSerial(b))
+    st = client.autopilot()
+    assert (st["state_name"], st["flier_name"], st["override_name"], st["privilege_names"]) == \
+        ("off", "nobody", "none", [])
+    b.ask(msp.MSP_SET_RAW_RC, _rc())  # refused: the autopilot switch is off
+    st = client.autopilot()
+    assert st["last_reason"] == R_SWITCH_OFF and st["rejected"] == 1
+    b.enable_autopilot()
+    b.ask(msp.MSP_SET_RAW_RC, _rc(1400))
+    st = client.autopilot()
+    assert st["state_name"] == "enabled" and st["privilege_names"] == ["rc", "arm", "in_control"]
+    assert st["last_reason"] is None and st["throttle_us"] == 1400

@@ -16,6 +16,7 @@ controller) raises LinkError, a UserError: the CLI prints it as one line.
 import re
 import time
 
+from hoverfly.core.autopilot import PRIV_NAMES, RES_ARM_REFUSED, RESULT_TEXTS, STATE_NAMES, arm_refusal_text
 from hoverfly.errors import UserError
 from hoverfly.protocols import maintenance as mp
 from hoverfly.protocols import msp
@@ -146,6 +147,26 @@ class MspClient:
                     return p.message()
             self.timeouts += 1
         raise LinkError("no MSP reply to command %d from %s" % (cmd, _url(self.port)))
+
+    def autopilot(self):
+        """Seed 004's privilege state (MSP2_HOVERFLY_AUTOPILOT, docs/msp.md): msp.AUTOPILOT_FIELDS as a
+        dict, plus their names: state_name, flier_name, override_name, privilege_names, last_reason."""
+        payload = self.request(msp.MSP2_HOVERFLY_AUTOPILOT, version=2)
+        st = msp.unpack_autopilot(payload)
+        if st is None:
+            raise LinkError("short MSP2_HOVERFLY_AUTOPILOT reply (%d bytes) from %s" % (len(payload), _url(self.port)))
+
+        def name(names, i):
+            return names[i] if 0 <= i < len(names) else str(i)
+
+        st["state_name"] = name(STATE_NAMES, st["state"])
+        st["flier_name"] = name(msp.FLIER_NAMES, st["flier"])
+        st["override_name"] = name(msp.OVERRIDE_KIND_NAMES, st["override"])
+        st["privilege_names"] = [PRIV_NAMES[b] for b in range(len(PRIV_NAMES)) if st["privilege"] & (1 << b)]
+        code = st["last_result"]
+        st["last_reason"] = (arm_refusal_text(st["last_arm_reason"]) if code == RES_ARM_REFUSED
+                             else name(RESULT_TEXTS, code))
+        return st
 
 
 # --------------------------------------------------------------------------------------------- CLI
