@@ -24,6 +24,11 @@ else:
 _ODD = (float("nan"), float("inf"), -float("inf"), 1e30, -1e30, -0.0, 0.0, 1e-40, -1e-40, 1.0, 1.0000001,
         0.9999999, 2.0 ** -17, -(2.0 ** -16), 0.5, 1.5)
 
+# seed 001's motor parameters (commands 8-11): motor 3 and 6 disabled, motor 1's floor and motor 2's ceiling
+# moved, motor 4's range empty (max below min: held at its min)
+_PER_MOTOR = (("motor_enable", 0xDB), ("motor1_min_us", 1200), ("motor2_max_us", 1600), ("motor4_min_us", 1500),
+              ("motor4_max_us", 1400))
+
 
 def _stage(sets=()):
     p = Params()
@@ -45,7 +50,7 @@ def _demands(rnd, n, a, b=None):
 
 
 def test_the_fixed_commands_agree_with_the_float_stage():
-    for sets in ((), (("motor_idle_pct", 0.0), ("motor_max_pct", 50.0)), (("motor_idle_pct", 20.0),)):
+    for sets in ((), (("motor_idle_pct", 0.0), ("motor_max_pct", 50.0)), (("motor_idle_pct", 20.0),), _PER_MOTOR):
         a = _stage(sets)
         b = _stage(sets)
         norm = array("f", [0.0] * 8)
@@ -70,7 +75,7 @@ def test_the_viper_twin_gives_the_python_twins_bits():
         assert OutputStage.update_fixed is OutputStage.update_fixed_python  # no viper: the Python twin runs
         return
     assert OutputStage.update_fixed is output_viper.update_fixed
-    for sets in ((), (("motor_idle_pct", 0.0), ("motor_max_pct", 50.0)), (("motor_idle_pct", 20.0),)):
+    for sets in ((), (("motor_idle_pct", 0.0), ("motor_max_pct", 50.0)), (("motor_idle_pct", 20.0),), _PER_MOTOR):
         sa = _stage(sets)
         sb = _stage(sets)
         na, nb = array("f", [0.0] * 8), array("f", [0.0] * 8)
@@ -135,3 +140,31 @@ def test_a_flight_takes_the_fixed_commands_with_the_fixed_rate_loop():
     f.configure()
     assert not f._fixed_out_on
     assert output_mod.HAS_ACCEL == IS_MICROPYTHON
+
+
+def test_per_motor_ranges_bound_the_armed_commands_and_a_disabled_motor_stays_stopped():
+    from hoverfly.core.output import OutputEncoder
+
+    p = Params()
+    for name, value in _PER_MOTOR + (("motor_protocol", "pwm"), ("motor_pwm_rate", 400)):
+        assert p.set(name, value) is None
+    enc = OutputEncoder()
+    enc.configure(p, 8, 0, 0)
+    for update in ("update", "update_fixed", "update_fixed_python"):
+        st = OutputStage()
+        st.configure(p, 8)
+        out = array("f", [0.0] * 8)
+        for demand in (0.0, 0.5, 1.0):
+            norm = array("f", [demand] * 8)
+            getattr(st, update)(norm, True, out)
+            enc.write(out, 8, 1000)
+            us = enc.pulse_us
+            # the PWM pulse of each motor: its own range while armed, the idle floor (5.5 %) elsewhere
+            assert abs(us[0] - (1200 + 800 * demand)) < 0.2, (update, demand, list(us))
+            assert abs(us[1] - (1055 + 545 * demand)) < 0.2, (update, demand, list(us))
+            assert us[2] == 1000.0 and us[5] == 1000.0, (update, demand, list(us))  # disabled: the stop pulse
+            assert abs(us[3] - 1500) < 0.2, (update, demand, list(us))
+            assert abs(us[4] - (1055 + 945 * demand)) < 0.2, (update, demand, list(us))
+        getattr(st, update)(norm, False, out)  # disarmed: every motor its disarmed value, whatever its range
+        enc.write(out, 8, 2000)
+        assert list(enc.pulse_us) == [1000.0] * 8, (update, list(enc.pulse_us))

@@ -11,9 +11,10 @@ bits (`ptr32` on the "f" arrays), so no float object is made:
   anything above 1.0 (0x3F800000), +inf included, is 1.0 (counted), as `OutputStage.update`'s
   float comparisons decide them.
 - A demand in 0..1 is truncated to Q16; the command is idle + (span * demand + 2**13) >> 14 in
-  Q16 (span Q14, so the product stays under 2**31 on a 32-bit port), written as the float32 bits
-  of command / 2**16: at most 2**17, so exact, as an array store of that value is; the exponent in
-  five halving steps.
+  Q16 (span Q14, so the product stays under 2**31 on a 32-bit port), with each motor's own floor
+  and span from the plan (motor_enable, motorN_min_us/_max_us; a disabled motor has both 0, so its
+  command is 0.0, stop), written as the float32 bits of command / 2**16: at most 2**17, so exact,
+  as an array store of that value is; the exponent in five halving steps.
 - Disarmed: every motor's command is 0.0 (bits 0). The clamp count saturates just past 2**30, as
   the Python twin's does, so reading it back never needs more than a 32-bit word.
 """
@@ -28,7 +29,7 @@ import micropython
 def update_fixed(self, motor_norm, armed: int, motor_out):
     """OutputStage.update_fixed itself (core/output.py puts it on the class): no bytecode frame."""
     out = ptr32(motor_out)
-    plan = ptr32(self._fixed_plan)  # array('i'): motors, idle Q16, span Q14 (none negative)
+    plan = ptr32(self._fixed_plan)  # array('i'): motors, then per motor floor Q16, span Q14 (none negative)
     n = int(plan[0])
     i = 0
     if not armed:
@@ -37,13 +38,13 @@ def update_fixed(self, motor_norm, armed: int, motor_out):
             i += 1
         return
     norm = ptr32(motor_norm)
-    idle = int(plan[1])
-    span = int(plan[2])
     one = 1
     low31 = (one << 31) - 1  # 0x7FFFFFFF and 0x7F800000 (+inf): no constant of 2**30 or more, which is
     inf = ((one << 8) - 1) << 23  # not a small int on a 32-bit port
     clamped = 0
     while i < n:
+        idle = int(plan[1 + 2 * i])
+        span = int(plan[2 + 2 * i])
         b = norm[i]
         mag = b & low31
         v = 0

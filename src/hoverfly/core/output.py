@@ -4,7 +4,11 @@ Step 6 of the pass, in two halves on either side of `board.write_motors`:
 
 - `OutputStage` (in `Flight`): motor demand 0..1 from the mixer -> `motor_out`, the Board
   contract's scale (0 = stop, otherwise idle..max): `motor_idle_pct` is the armed floor,
-  `motor_max_pct` the ceiling. Disarmed gives 0 whatever the mixer says. Demand outside 0..1
+  `motor_max_pct` the ceiling. Per motor (seed 001's motor parameters, commands 8-11):
+  `motorN_min_us` raises that motor's floor and `motorN_max_us` lowers its ceiling, both on the
+  PWM scale (1000 us = 0, 2000 us = 1 of motor_out; the encoder scales them to OneShot's widths
+  or DShot's throttle range like every command), and a cleared `motor_enable` bit keeps the
+  motor at 0 (stop) even armed. Disarmed gives 0 whatever the mixer says. Demand outside 0..1
   (or NaN) is clamped and counted. hoverfly has no 3D mode: 0..1 runs one way only. Servo
   positions (tri tail, fixed-wing surfaces) pass through, centred while disarmed. With
   bidirectional DShot it decodes the ESCs' eRPM replies (21-bit GCR line codes from the board)
@@ -62,14 +66,14 @@ _CLAMPED_MAX = const(0x3FFFFFFF)  # update_fixed's count saturates here: a 32-bi
 
 
 def motors_fixed(norm, out, plan):
-    """out[i] = idle + span * clamp(norm[i], 0, 1) for i < n in fixed point (plan: array('i') of n,
-    idle Q16, span Q14; the demand truncated to Q16); returns how many demands were clamped (outside
-    0..1 or NaN). The Python twin of accel/output.py."""
+    """out[i] = idle_i + span_i * clamp(norm[i], 0, 1) for i < n in fixed point (plan: array('i') of n,
+    then per motor its floor Q16 and span Q14; the demand truncated to Q16); returns how many demands
+    were clamped (outside 0..1 or NaN). The Python twin of accel/output.py."""
     n = plan[0]
-    idle = plan[1]
-    span = plan[2]
     clamped = 0
     for i in range(n):
+        idle = plan[1 + 2 * i]
+        span = plan[2 + 2 * i]
         m = norm[i]
         if m > 1.0:
             v = 65536
@@ -139,7 +143,11 @@ class OutputStage:
         self._span = 1.0 - 0.055
         self._idle_q16 = 3604
         self._span_q14 = 15483
-        self._fixed_plan = array("i", [4, 3604, 15483])  # motors_fixed's: motors, idle Q16, span Q14
+        # Per motor (motor_enable, motorN_min_us/_max_us): the armed floor and span, and motors_fixed's
+        # plan: motors, then per motor floor Q16, span Q14. A disabled motor: floor and span 0 (stop).
+        self.floor = [0.055] * MAX_MOTORS
+        self.span = [0.945] * MAX_MOTORS
+        self._fixed_plan = array("i", [4] + [3604, 15483] * MAX_MOTORS)
         self.clamped = 0  # motor demand outside 0..1 or NaN
         self.bidir = False
         self.error = ""  # a configuration the board's encoder will also refuse (e.g. motor_order)
@@ -159,8 +167,28 @@ class OutputStage:
         self._span_q14 = int(self._span * 16384.0 + 0.5)
         plan = self._fixed_plan
         plan[0] = motor_count
-        plan[1] = self._idle_q16
-        plan[2] = self._span_q14
+        enable = params.get("motor_enable")
+        for i in range(MAX_MOTORS):
+            lo = self.idle
+            hi = self.motor_max
+            if i < 4:
+                # seed 001's per-motor pulse range on the PWM scale: 1000 us is motor_out 0, 2000 us is 1
+                lo_us = params.get("motor%d_min_us" % (i + 1))
+                hi_us = params.get("motor%d_max_us" % (i + 1))
+                if (lo_us - 1000) * 0.001 > lo:
+                    lo = (lo_us - 1000) * 0.001
+                if (hi_us - 1000) * 0.001 < hi:
+                    hi = (hi_us - 1000) * 0.001
+                if hi < lo:
+                    hi = lo
+            # SAFETY: a disabled motor gets 0 (stop) whatever the mixer asks, armed or not.
+            if not enable & (1 << i):
+                lo = 0.0
+                hi = 0.0
+            self.floor[i] = lo
+            self.span[i] = hi - lo
+            plan[1 + 2 * i] = self._idle_q16 if lo == self.idle else int(lo * 65536.0 + 0.5)
+            plan[2 + 2 * i] = self._span_q14 if hi - lo == self._span else int((hi - lo) * 16384.0 + 0.5)
         self.bidir = dshot_speed_kbit(params.get("motor_protocol")) > 0 and params.get("dshot_bidir") == 1
         poles = params.get("motor_poles")
         for d in self.decoders:
@@ -168,14 +196,15 @@ class OutputStage:
         self.error = parse_motor_order(params.get("motor_order"), motor_count)[1]
 
     def update(self, motor_norm, armed, motor_out):
-        """motor_out[i] = idle + (max - idle) * demand while armed, 0 (stop) while disarmed."""
+        """motor_out[i] = floor_i + span_i * demand while armed (floor idle, span max - idle unless the
+        motor's own range or motor_enable says otherwise), 0 (stop) while disarmed."""
         n = self.motor_count
         if not armed:
             for i in range(n):
                 motor_out[i] = 0.0
             return
-        idle = self.idle
-        span = self._span
+        floor = self.floor
+        span = self.span
         for i in range(n):
             m = motor_norm[i]
             if m > 1.0:
@@ -184,7 +213,7 @@ class OutputStage:
             elif not (m >= 0.0):  # below 0, or NaN: the floor, never a wrap to full
                 m = 0.0
                 self.clamped += 1
-            motor_out[i] = idle + span * m
+            motor_out[i] = floor[i] + span[i] * m
 
     def update_fixed_python(self, motor_norm, armed, motor_out):
         """`update` in fixed point (with the fixed rate loop): the same clamps and counts (saturating
