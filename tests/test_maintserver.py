@@ -73,21 +73,23 @@ def test_all_fields_at_once_in_header_order(srv):
     assert v["ptf1_params"][3] == pytest.approx(1 / (2 * math.pi * 250), rel=1e-5)
     assert v["sw_ver"] == (0, 1, 0, mp.RELEASE_BETA)
     assert v["motor_params"][:3] == (1, 1000, 2000)
-    assert v["imu_type"] == mp.IMU_MPU6050
+    assert v["imu_type"] == mp.IMU_MPU6050  # the sim-like fake board says nothing: the imu_type parameter
+    assert v["js_params"] == pytest.approx((0.1, 0.005) * 3)
+    assert v["throttle_params"] == (1350, 1500, 1650)
 
 
 # Commands the server carries out (reply echoes the id) and those it refuses by design (ERROR_CMD).
 GOOD_ARGS = {
     0: (), 6: (1,), 7: (),
-    15: (50.0, 60.0, 0.0, 300.0, 0.0, 30.0), 16: (51.0, 61.0, 0.0, 300.0, 0.0, 31.0),
-    17: (52.0, 62.0, 0.0, 300.0, 0.0, 0.0),
-    18: (0.01, 0.01, 0.01), 19: (0.001, 0.001, 0.001), 20: (0.0, 0.0, 0.0), 21: (mp.IMU_MPU6050,), 24: (),
-}
-UNSUPPORTED = {
-    8: (1, 1000, 2000), 9: (1, 1000, 2000), 10: (1, 1000, 2000), 11: (1, 1000, 2000),
-    12: (0.5, 0.1), 13: (0.5, 0.1), 14: (0.5, 0.1), 22: (0, 0x28, 0x00), 23: (0, 0x28, 0x3D, 0x0C),
+    8: (0, 1100, 1900), 9: (1, 1200, 1800), 10: (1, 1000, 2000), 11: (1, 1050, 1950),
+    12: (0.5, 0.25), 13: (0.75, 0.125), 14: (1.0, 0.0),
+    15: (50.0, 60.0, 0.25, 300.0, 0.5, 30.0), 16: (51.0, 61.0, 0.0, 300.0, -2.5, 31.0),
+    17: (52.0, 62.0, 1.5, 300.0, 0.0, 0.0),
+    18: (0.01, 0.01, 0.01), 19: (0.001, 0.001, 0.001), 20: (0.0, 0.0, 0.0), 21: (mp.IMU_BNO055,), 24: (),
     25: (1300, 1500, 1700),
 }
+# the fake board has no I2C: the commands are refused with that reason
+UNSUPPORTED = {22: (0, 0x28, 0x00), 23: (0, 0x28, 0x3D, 0x0C)}
 
 
 @pytest.mark.parametrize("cmd", sorted(GOOD_ARGS))
@@ -102,6 +104,15 @@ def test_supported_commands_are_carried_out(srv, cmd):
         assert q.values == p.values
     elif cmd == 15:
         assert (p.get("p_roll"), p.get("i_roll"), p.get("d_roll"), p.get("iterm_limit")) == (50, 60, 30, 300)
+        assert (p.get("pid_kt_roll"), p.get("pid_ad_roll")) == (0.25, 0.5)
+    elif cmd == 8:
+        assert p.get("motor_enable") == 0xFE and (p.get("motor1_min_us"), p.get("motor1_max_us")) == (1100, 1900)
+    elif cmd == 12:
+        assert (p.get("ab_thr_alpha"), p.get("ab_thr_beta")) == (0.5, 0.25)
+    elif cmd == 21:
+        assert p.get("imu_type") == "bno055"
+    elif cmd == 25:
+        assert (p.get("thr_descend_us"), p.get("thr_hover_us"), p.get("thr_climb_us")) == (1300, 1500, 1700)
     elif cmd == 17:
         assert (p.get("p_yaw"), p.get("i_yaw"), p.get("d_yaw")) == (52, 62, 0)
     elif cmd == 18:
@@ -112,12 +123,45 @@ def test_supported_commands_are_carried_out(srv, cmd):
         assert server.motor_control and f.config_session & 4
 
 
+@pytest.mark.parametrize("cmd", sorted(GOOD_ARGS))
+def test_every_set_command_reads_back_what_it_sent(srv, cmd):
+    # the seed's read-back: the field each command writes holds exactly the numbers sent
+    server, _, _ = srv
+    field = {8: "motor_params", 9: "motor_params", 10: "motor_params", 11: "motor_params", 12: "js_params",
+             13: "js_params", 14: "js_params", 15: "PID_params", 16: "PID_params", 17: "PID_params",
+             18: "ptf1_params", 19: "ptf1_params", 20: "ptf1_params", 21: "imu_type",
+             25: "throttle_params"}.get(cmd)
+    if field is None:
+        return
+    _reply(server, [], cmd, GOOD_ARGS[cmd])
+    _, v = _reply(server, [field])
+    args = GOOD_ARGS[cmd]
+    got = v[field]
+    if 8 <= cmd <= 11:
+        k = cmd - 8
+        assert got[3 * k:3 * k + 3] == args
+    elif 12 <= cmd <= 14:
+        k = cmd - 12
+        assert got[2 * k:2 * k + 2] == args
+    elif 15 <= cmd <= 17:
+        k = cmd - 15
+        assert got[6 * k:6 * k + 6] == args
+    elif 18 <= cmd <= 20:
+        k = cmd - 18
+        want = args[0]
+        if want:  # the cutoff is a whole number of Hz: the time constant of the nearest one reads back
+            want = 1 / (2 * math.pi * round(1 / (2 * math.pi * want)))
+        assert got[3 * k:3 * k + 3] == pytest.approx((want,) * 3, rel=1e-6)
+    else:
+        assert got == (args[0] if cmd == 21 else args)
+
+
 @pytest.mark.parametrize("cmd", sorted(UNSUPPORTED))
-def test_commands_without_a_hoverfly_meaning_get_an_error_reply_and_change_nothing(srv, cmd):
+def test_i2c_commands_on_a_board_without_i2c_get_an_error_reply_and_change_nothing(srv, cmd):
     server, f, _ = srv
     before = dict(f.params.values)
     got, _ = _reply(server, ["motor_params"], cmd, UNSUPPORTED[cmd])
-    assert got == ERROR_CMD and server.last_error
+    assert got == ERROR_CMD and "no I2C" in server.last_error
     assert f.params.values == before
 
 
@@ -128,8 +172,10 @@ def test_motor_commands_need_control_motors_first(srv):
     assert _reply(server, [], 6, (1,))[0] == 6
     for cmd in range(1, 6):
         assert _reply(server, [], cmd, (1000 + 100 * cmd,))[0] == cmd
-    assert [(i, round(v, 3)) for i, v in f.motor_test.requests] == [(0, 0.1), (1, 0.2), (2, 0.3), (3, 0.4),
-                                                                    (-1, 0.5)]
+    # motor_test_pct 30: 1400 and 1500 us run at 1300; "all motors" is each enabled motor
+    assert [(i, round(v, 3)) for i, v in f.motor_test.requests] == [(0, 0.1), (1, 0.2), (2, 0.3), (3, 0.3),
+                                                                    (0, 0.3), (1, 0.3), (2, 0.3), (3, 0.3)]
+    assert server.capped == 2 and "motor_test_pct" in server.last_capped
     assert _reply(server, [], 6, (0,))[0] == 6
     assert f.config_session & 4 == 0 and f.motor_test.stops == 1
 
@@ -162,8 +208,10 @@ def test_remote_control_tag_overrides_the_radio(srv):
 @pytest.mark.parametrize("cmd,args", [
     (1, (999,)), (5, (2001,)), (6, (2,)), (15, (float("nan"), 1.0, 0.0, 1.0, 0.0, 1.0)),
     (15, (45.5, 80.0, 0.0, 400.0, 0.0, 40.0)), (15, (300.0, 80.0, 0.0, 400.0, 0.0, 40.0)),
-    (18, (-1.0, -1.0, -1.0)), (18, (0.01, 0.02, 0.01)), (20, (0.1, 0.1, 0.1)), (21, (3,)), (21, (2,)),
-    (22, (2, 0x28, 0)), (23, (0, 0x80, 0, 0)), (25, (1700, 1500, 1300)),
+    (18, (-1.0, -1.0, -1.0)), (18, (0.01, 0.02, 0.01)), (20, (0.1, 0.1, 0.1)), (21, (3,)),
+    (22, (2, 0x28, 0)), (23, (0, 0x80, 0, 0)), (25, (1700, 1500, 1300)), (25, (1300, 1500, 2100)),
+    (8, (1, 1500, 1400)), (8, (2, 1000, 2000)), (9, (1, 900, 2000)), (12, (1.5, 0.1)), (13, (0.5, -0.1)),
+    (14, (float("inf"), 0.1)), (16, (50.0, 60.0, -1.0, 300.0, 0.0, 30.0)), (17, (50.0, 60.0, 0.0, 600.0, 0.0, 30.0)),
 ])
 def test_out_of_range_values_get_an_error_reply_and_change_nothing(srv, cmd, args):
     server, f, _ = srv
@@ -184,8 +232,8 @@ def test_writes_while_armed_are_refused(srv):
     server, f, board = srv
     f.arming.armed = True
     before = dict(f.params.values)
-    for cmd in (1, 5, 7, 15, 18, 19, 24):
-        args = GOOD_ARGS.get(cmd, (1200,))
+    for cmd in (1, 5, 7, 8, 12, 15, 18, 19, 21, 22, 23, 24, 25):
+        args = GOOD_ARGS.get(cmd, UNSUPPORTED.get(cmd, (1200,)))
         assert _reply(server, [], cmd, args)[0] == ERROR_CMD
     assert f.params.values == before and board.store.writes == 0 and f.motor_test.requests == []
     assert _reply(server, ["body_roll"], 0)[0] == 0  # reading is fine
@@ -215,7 +263,7 @@ def test_bad_checksum_wrong_length_and_unknown_command_are_counted_drops(srv):
 def test_firmware_layout_server_answers_firmware_layout(srv):
     _, f, _ = srv
     server = MaintServer(f, None, mp.LAYOUT_FIRMWARE)
-    frame = mp.encode_request(["body_pitch"], 21, (2,), None, mp.LAYOUT_FIRMWARE)
+    frame = mp.encode_request(["body_pitch"], 21, (3,), None, mp.LAYOUT_FIRMWARE)  # no IMU id 3: refused
     raw = _exchange(server, frame)
     assert mp.header_cmd(raw[1:9], mp.LAYOUT_FIRMWARE) == ERROR_CMD
     assert len(raw) == 1 + 8 + 4 + 1
@@ -239,3 +287,60 @@ def test_pid_float_layout_is_six_floats():
     frame = mp.encode_request([], 15, GOOD_ARGS[15])
     assert len(frame) == 9 + 34
     assert struct.unpack_from("<6f", frame, 9) == pytest.approx(GOOD_ARGS[15])
+
+
+def test_capped_motor_command_runs_at_the_cap_and_reads_back_capped():
+    # given a real motor test (motor_test_pct 30) and motor 2 limited to 1250 us, when the client asks
+    # 1800 us, then the reply carries the command out and its motor signals read the pulses the motors run
+    f, _ = make_flight(seams=False)
+    server = MaintServer(f, None)
+    assert f.params.set("motor2_max_us", 1250) is None
+    _reply(server, [], 6, (1,))
+    got, v = _reply(server, ["motor1_signal", "motor2_signal", "motor3_signal"], 5, (1800,))
+    assert got == 5, server.last_error
+    assert (v["motor1_signal"], v["motor2_signal"], v["motor3_signal"]) == (1300, 1250, 1300)
+    assert "motor_test_pct 30" in server.last_capped and "motor2_max_us" in server.last_capped
+    assert _reply(server, [], 6, (0,))[0] == 6 and not f.motor_test.active
+
+
+def test_a_disabled_motor_is_refused_by_the_motor_test_and_stays_stopped_armed():
+    f, _ = make_flight(seams=False)
+    server = MaintServer(f, None)
+    assert _reply(server, [], 9, (0, 1000, 2000))[0] == 9  # motor 2 disabled
+    _reply(server, [], 6, (1,))
+    assert _reply(server, [], 2, (1200,))[0] == ERROR_CMD and "disabled" in server.last_error
+    assert _reply(server, [], 5, (1200,))[0] == 5
+    assert list(f.motor_test.values[:4]) == pytest.approx([0.2, 0.0, 0.2, 0.2])
+    _reply(server, [], 6, (0,))
+    f.configure()
+    from array import array
+    out = array("f", [0.0] * 4)
+    f.output.update(array("f", [0.7] * 4), True, out)  # SAFETY: armed, the mixer asks 0.7 of every motor
+    assert out[1] == 0.0 and out[0] > 0.5
+
+
+class _Raises:
+    def __get__(self, obj, cls):
+        raise RuntimeError("sensor gone")
+
+
+@pytest.mark.parametrize("value,want", [("mpu6050", 1), ("MPU-6050", 1), ("BNO055", 2), ("lsm9ds1", 0), (2, 2),
+                                        ("icm42688", 255), ("auto", 255), (7, 255), (-1, 255), (3.5, 255),
+                                        (b"bno055", 2), (b"\xff", 255), (object(), 255), (True, 255)])
+def test_imu_type_encodes_whatever_the_board_says_and_never_raises(srv, value, want):
+    server, _, board = srv
+    board.imu_type = value
+    got, v = _reply(server, "all")
+    assert got == 0 and v["imu_type"] == want
+
+
+def test_a_field_that_raises_is_sent_as_zero_and_counted(srv):
+    server, f, board = srv
+    type(board).imu_type = _Raises()
+    try:
+        f.signals.attitude = None  # body_* cannot be read
+        got, v = _reply(server, "all")
+    finally:
+        del type(board).imu_type
+    assert got == 0 and v["body_roll"] == 0.0 and v["imu_type"] == 255
+    assert server.field_errors >= 3 and "body_" in server.last_field_error

@@ -7,7 +7,12 @@ units and mapping are in docs/configuration.md). Frames with a bad checksum, a w
 unknown command id cannot be answered (their length is unknown): the codec counts and drops them.
 A request that is framed but refused (out-of-range value, a write while armed, a command hoverfly
 cannot carry out) is answered with the command id replaced by ERROR_CMD (127) and nothing
-changes; `last_error` says why. Runs from the links task, never in the flight pass.
+changes; `last_error` says why. Runs from the links task, never in the flight pass, and never
+raises: a board or stage that does is a refusal ("internal error"), a field it cannot read or fit
+to its wire type is sent as 0 (counted in `field_errors`).
+
+What each command does in hoverfly, the parameters it writes and the capping rules are in
+docs/maintenance-protocol.md ("Commands in hoverfly").
 
 REMOTE_CONTROL_TAG with override = 1 becomes an RC frame for flight.on_msp_rc (the seed's
 "fly from maintenance"). Command 6 (control motors) = 1 is the props-off acknowledgement: motor
@@ -23,8 +28,17 @@ ERROR_CMD = 127
 _DEG = 57.29577951308232
 _TWO_PI = 6.283185307179586
 
-_WRITES = (1, 2, 3, 4, 5, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21, 23, 24, 25)
+# Refused while armed: every parameter write, the motor commands and both I2C transactions (22, 23).
+_REFUSED_ARMED = (1, 2, 3, 4, 5, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21, 22, 23, 24, 25)
 _AXES = ("roll", "pitch", "yaw")
+_JS_NAMES = ("thr", "roll", "pitch")  # commands 12-14 and js_params: ab_<stick>_alpha / _beta
+_IMU_PARAM = ("lsm9ds1", "mpu6050", "bno055")  # the seed's IMU enum -> the imu_type parameter
+_IMU_OTHER = 255  # imu_type for an IMU the seed's enum has no id for
+
+_SPEC = {}  # field name -> (struct code, count): what field() fits each value to
+for _f in mp.FIELDS:
+    _SPEC[_f[0]] = (_f[1], _f[2])
+_SPEC["pt1f_params"] = _SPEC["ptf1_params"]
 
 
 def _tau_of_hz(hz):
@@ -48,6 +62,10 @@ class MaintServer:
         self.requests = 0
         self.refused = 0
         self.overrides = 0
+        self.capped = 0  # motor commands run at a cap or floor other than the pulse sent (last_capped: why)
+        self.last_capped = ""
+        self.field_errors = 0  # telemetry values that could not be read or did not fit their wire type
+        self.last_field_error = ""
         self.last_error = None
 
     def close(self):
@@ -91,6 +109,13 @@ class MaintServer:
 
     # ----------------------------------------------------------------- requests
     def _request(self, p):
+        """Carry out one request; None, or the one-line reason it was refused (nothing changed)."""
+        try:
+            return self._carry_out(p)
+        except Exception as exc:  # a board or stage that raises must not end the links task or the pass
+            return "internal error: %s" % (exc,)
+
+    def _carry_out(self, p):
         err = mp.validate_remote_control(p.rc_override, p.rc_armed_us, p.rc_roll_us, p.rc_pitch_us,
                                          p.rc_throttle_us)
         if err is not None:
@@ -101,7 +126,9 @@ class MaintServer:
         if err is not None:
             return err
         f = self.flight
-        if cmd in _WRITES and f.arming.armed:
+        # SAFETY: configuration writes, motor commands and I2C transactions (the IMU's own bus) never
+        # while armed.
+        if cmd in _REFUSED_ARMED and f.arming.armed:
             return "refused while armed: disarm first"
         if p.rc_override:
             err = self._override(p)
@@ -119,14 +146,23 @@ class MaintServer:
                 return "no storage on this board"
             return self.storage.save(f.params)
         if cmd <= mp.CMD_SET_MOTOR4_PARAMS:
-            return "per-motor pulse ranges are not hoverfly parameters (see motor protocol settings)"
+            k = cmd - mp.CMD_SET_MOTOR1_PARAMS
+            if k >= f.motor_count:
+                return "no motor %d on this frame" % (k + 1)
+            enable = f.params.get("motor_enable")
+            enable = (enable | (1 << k)) if args[0] else (enable & ~(1 << k))
+            n = "motor%d_" % (k + 1)
+            return f.params.update((("motor_enable", enable), (n + "min_us", args[1]), (n + "max_us", args[2])))
         if cmd <= mp.CMD_SET_JS_PITCH:
-            return "joystick alpha/beta filters are not hoverfly parameters (see rc_smoothing_hz)"
+            n = _JS_NAMES[cmd - mp.CMD_SET_JS_THROTTLE]
+            return f.params.update((("ab_%s_alpha" % n, args[0]), ("ab_%s_beta" % n, args[1])))
         if cmd <= mp.CMD_SET_YAW_PID:
             axis = _AXES[cmd - mp.CMD_SET_ROLL_PID]
-            # KP, KI, BD carry Betaflight-scale P, I, D; SAT the I-term limit; KT and AD are ignored.
+            # KP, KI, BD are Betaflight-scale P, I, D (whole numbers); SAT is iterm_limit, one for every
+            # axis; KT and AD are kept (pid_kt_*, pid_ad_*) and reported back, the controller does not use them.
             return f.params.update((("p_" + axis, args[mp.PID_KP]), ("i_" + axis, args[mp.PID_KI]),
-                                    ("d_" + axis, args[mp.PID_BD]), ("iterm_limit", args[mp.PID_SAT])))
+                                    ("pid_kt_" + axis, args[mp.PID_KT]), ("iterm_limit", args[mp.PID_SAT]),
+                                    ("pid_ad_" + axis, args[mp.PID_AD]), ("d_" + axis, args[mp.PID_BD])))
         if cmd <= mp.CMD_SET_PT1_MAGN:
             if not (args[0] == args[1] == args[2]):
                 return "hoverfly filters all three axes alike: x, y and z time constants must be equal"
@@ -135,24 +171,33 @@ class MaintServer:
             name = "acc_lpf_hz" if cmd == mp.CMD_SET_PT1_ACCEL else "gyro_lpf1_hz"
             return f.params.set(name, _hz_of_tau(args[0]))
         if cmd == mp.CMD_SET_IMU_TYPE:
-            if args[0] == self.imu_type():
-                return None
-            return "the IMU type is fixed by the board"
+            # a REBOOT parameter: the IMU starts at the next boot (after a flash write)
+            return f.params.set("imu_type", _IMU_PARAM[args[0]])
         if cmd == mp.CMD_I2C_READ or cmd == mp.CMD_I2C_WRITE:
-            fn = getattr(f.board, "i2c_read" if cmd == mp.CMD_I2C_READ else "i2c_write", None)
-            if fn is None:
-                return "no I2C access on this board"
-            if cmd == mp.CMD_I2C_READ:
-                v = fn(args[0], args[1], args[2])
-                if v is None or v < 0:
-                    return "I2C read failed"
-                self.i2c_value = v & 0xFF
-                return None
-            return None if fn(args[0], args[1], args[2], args[3]) else "I2C write failed"
+            return self._i2c(cmd, args)
         if cmd == mp.CMD_RESET_IMU_OFFSET:
             att = f.signals.attitude
             return f.params.update((("acc_trim_roll", att.roll_rad * _DEG), ("acc_trim_pitch", att.pitch_rad * _DEG)))
-        return "seed throttle presets are not hoverfly parameters (the throttle stick is proportional)"
+        return f.params.update((("thr_descend_us", args[0]), ("thr_hover_us", args[1]), ("thr_climb_us", args[2])))
+
+    def _i2c(self, cmd, args):
+        """Commands 22-23 through the board: `i2c_read(bus, address, register)` gives the byte or a reason
+        (str), `i2c_write(bus, address, register, value)` None or a reason."""
+        read = cmd == mp.CMD_I2C_READ
+        fn = getattr(self.flight.board, "i2c_read" if read else "i2c_write", None)
+        if fn is None:
+            return "no I2C access on this board"
+        what = "I2C%d 0x%02x register 0x%02x" % (args[0], args[1], args[2])
+        try:
+            r = fn(args[0], args[1], args[2]) if read else fn(args[0], args[1], args[2], args[3])
+        except Exception as exc:  # a board without its own reasons: the bus error is the reason
+            return "%s: %s failed (%s)" % (what, "read" if read else "write", exc)
+        if read:
+            if isinstance(r, int) and not isinstance(r, bool) and 0 <= r <= 255:
+                self.i2c_value = r
+                return None
+            return str(r) if isinstance(r, str) else "%s: read failed" % what
+        return None if r is None else str(r)
 
     def _override(self, p):
         f = self.flight
@@ -172,23 +217,125 @@ class MaintServer:
         return None if not reason else str(reason)
 
     def _motor(self, cmd, pulse_us):
+        """Commands 1-5: the props-off motor test (core/motortest.py) on enabled motors. A pulse above
+        the test's cap (motor_test_pct) or the motor's motorN_max_us runs at that cap, one between 1000 us
+        and the motor's floor (motorN_min_us, the idle output) at the floor: the command is carried out
+        and motorN_signal reads the value the motor runs at from this reply on; `capped` counts it and
+        `last_capped` says why."""
         if not self.motor_control:
             return "send control_motors 1 first (props removed)"
-        mt = getattr(self.flight, "motor_test", None)
+        f = self.flight
+        mt = getattr(f, "motor_test", None)
         if mt is None:
             return "this firmware has no motor test"
         index = -1 if cmd == mp.CMD_SET_ALL_MOTORS else cmd - mp.CMD_SET_MOTOR1
-        if index >= self.flight.motor_count:
+        n = f.motor_count
+        if index >= n:
             return "no motor %d on this frame" % (index + 1)
-        reason = mt.request(self.flight.board.now_us(), index, (pulse_us - 1000) * 0.001, True)
-        return None if not reason else str(reason)
+        p = f.params
+        enable = p.get("motor_enable")
+        if index >= 0 and not enable & (1 << index):
+            return "motor %d is disabled (motor_enable): enable it with command %d first" % (
+                index + 1, mp.CMD_SET_MOTOR1_PARAMS + index)
+        now = f.board.now_us()
+        test_cap_us = 1000 + int(p.get("motor_test_pct") * 10.0 + 0.5)
+        notes = []
+        for k in (range(n) if index < 0 else (index,)):
+            if not enable & (1 << k):
+                continue  # "all motors": the enabled ones; a disabled motor stays stopped
+            run_us, why = self._test_pulse(k, pulse_us, test_cap_us)
+            if why:
+                notes.append("motor %d runs at %d us, not %d: %s" % (k + 1, run_us, pulse_us, why))
+            reason = mt.request(now, k, (run_us - 1000) * 0.001, True)
+            if reason:
+                return str(reason)
+        if notes:
+            self.capped += 1
+            self.last_capped = "; ".join(notes)
+        return None
+
+    def _test_pulse(self, k, pulse_us, test_cap_us):
+        """The pulse motor k's test runs at for `pulse_us`, and why it differs ('' when it does not)."""
+        if pulse_us <= 1000:
+            return 1000, ""
+        p = self.flight.params
+        idle_us = 1000 + int(p.get("motor_idle_pct") * 10.0 + 0.5)
+        lo_us, hi_us = idle_us, 2000
+        if k < 4:
+            n = "motor%d_" % (k + 1)
+            if p.get(n + "min_us") > lo_us:
+                lo_us = p.get(n + "min_us")
+            hi_us = p.get(n + "max_us")
+        if test_cap_us < hi_us:
+            if pulse_us > test_cap_us:
+                return test_cap_us, "capped by motor_test_pct %g %% (props-off test limit)" % p.get("motor_test_pct")
+        elif pulse_us > hi_us:
+            return hi_us, "capped by motor%d_max_us" % (k + 1)
+        if pulse_us < lo_us:
+            return lo_us, "raised to the motor's floor (motor_idle_pct, motor%d_min_us)" % (k + 1)
+        return pulse_us, ""
 
     # ----------------------------------------------------------------- telemetry
     def imu_type(self):
-        return getattr(self.flight.board, "imu_type", mp.IMU_MPU6050)
+        """The seed's IMU id (0 LSM9DS1, 1 MPU6050, 2 BNO055, 255 another) of the IMU the board runs: its
+        driver's name, else the board's `imu_type`, else the `imu_type` parameter. Total: any value the
+        board holds (a name, an id, anything else) gives an id, never an exception."""
+        board = self.flight.board
+        v = None
+        try:
+            imu = getattr(board, "imu", None)
+            v = getattr(imu, "name", None) if imu is not None else None
+            if v is None or v == "imu":
+                v = getattr(board, "imu_type", None)
+            if v is None:
+                v = self.flight.params.get("imu_type")
+        except Exception:
+            return _IMU_OTHER
+        return imu_id(v)
 
     def field(self, name):
-        """The value of one header field, in the seed's units (docs/configuration.md)."""
+        """The value of one header field, in the seed's units (docs/maintenance-protocol.md), fitted to
+        the field's wire type: whatever a stage or the board holds, this never raises (a value that
+        cannot be read or does not fit counts in `field_errors` and is sent as 0 or clamped)."""
+        spec = _SPEC.get(name)
+        try:
+            v = self._field(name)
+        except Exception as exc:
+            self.field_errors += 1
+            self.last_field_error = "%s: %s" % (name, exc)
+            v = 0
+        if spec is None:
+            return 0
+        code, count = spec
+        if count == 1:
+            return self._fit(code, v)
+        out = [0] * count
+        try:
+            m = len(v)
+        except Exception:
+            m = 0
+        for j in range(count if m > count else m):
+            out[j] = self._fit(code, v[j])
+        if m != count:
+            self.field_errors += 1
+        return out
+
+    def _fit(self, code, v):
+        try:
+            if code == "f":
+                x = float(v)
+                return x if x - x == 0 else 0.0  # no nan or inf on the wire
+            x = int(v)
+        except Exception:
+            self.field_errors += 1
+            return 0.0 if code == "f" else 0
+        hi = 0xFF if code == "B" else (0xFFFF if code == "H" else 0xFFFFFFFF)
+        if x < 0 or x > hi:
+            self.field_errors += 1
+            return 0 if x < 0 else hi
+        return x
+
+    def _field(self, name):
         f = self.flight
         s = f.signals
         if name.startswith("raw_") or name.startswith("filtered_"):
@@ -231,31 +378,40 @@ class MaintServer:
             if k >= f.motor_count:
                 return 0
             v = s.motor_out[k]
+            mt = getattr(f, "motor_test", None)
+            if mt is not None and mt.active and not f.arming.armed and hasattr(mt, "values"):
+                v = mt.values[k]  # what the test drives from the next pass on (a capped value reads capped)
             return 1000 + int((v if v > 0.0 else 0.0) * 1000.0 + 0.5)
         if name == "motors_armed":
             return 1 if f.arming.armed else 0
         if name == "builtin_test_status":
             bit = getattr(f, "bit", None)
             return getattr(bit, "flags", 0) if bit is not None else 0
+        p = f.params
         if name == "motor_params":
             out = []
+            enable = p.get("motor_enable")
             for k in range(4):
-                out.append(1 if k < f.motor_count else 0)
-                out.append(1000)
-                out.append(2000)
+                on = k < f.motor_count and enable & (1 << k)
+                out.append(1 if on else 0)
+                out.append(p.get("motor%d_min_us" % (k + 1)))
+                out.append(p.get("motor%d_max_us" % (k + 1)))
             return out
         if name == "js_params":
-            return (0.0,) * 6
+            out = []
+            for n in _JS_NAMES:
+                out.append(p.get("ab_%s_alpha" % n))
+                out.append(p.get("ab_%s_beta" % n))
+            return out
         if name == "PID_params":
-            p = f.params
             out = []
             for axis in _AXES:
-                out.extend((float(p.get("p_" + axis)), float(p.get("i_" + axis)), 0.0,
-                            float(p.get("iterm_limit")), 0.0, float(p.get("d_" + axis))))
+                out.extend((p.get("p_" + axis), p.get("i_" + axis), p.get("pid_kt_" + axis), p.get("iterm_limit"),
+                            p.get("pid_ad_" + axis), p.get("d_" + axis)))
             return out
         if name in ("ptf1_params", "pt1f_params"):
-            ta = _tau_of_hz(f.params.get("acc_lpf_hz"))
-            tg = _tau_of_hz(f.params.get("gyro_lpf1_hz"))
+            ta = _tau_of_hz(p.get("acc_lpf_hz"))
+            tg = _tau_of_hz(p.get("gyro_lpf1_hz"))
             return (ta, ta, ta, tg, tg, tg, 0.0, 0.0, 0.0)
         if name == "imu_type":
             return self.imu_type()
@@ -264,7 +420,27 @@ class MaintServer:
         if name == "sw_ver":
             return (VERSION[0], VERSION[1], VERSION[2], mp.RELEASE_BETA if VERSION[0] == 0 else mp.RELEASE_RELEASE)
         if name == "imu_offset":
-            return (float(f.params.get("acc_trim_roll")), float(f.params.get("acc_trim_pitch")), 0.0)
+            return (p.get("acc_trim_roll"), p.get("acc_trim_pitch"), 0.0)
         if name == "throttle_params":
-            return (0, 0, 0)
+            return (p.get("thr_descend_us"), p.get("thr_hover_us"), p.get("thr_climb_us"))
         return 0
+
+
+def imu_id(v):
+    """The seed's IMU enum for an IMU named `v` ('mpu6050', 'MPU-6050', 'BNO055', ...) or an id already;
+    255 for anything else (another chip, 'auto' before detection, a value of another type)."""
+    if isinstance(v, bool):
+        return _IMU_OTHER
+    if isinstance(v, int):
+        return v if 0 <= v <= 2 else _IMU_OTHER
+    if isinstance(v, (str, bytes)):
+        if isinstance(v, bytes):
+            try:
+                v = v.decode()
+            except Exception:
+                return _IMU_OTHER
+        key = v.replace("-", "").replace("_", "").upper()
+        for i in range(len(mp.IMU_TYPE_NAMES)):
+            if mp.IMU_TYPE_NAMES[i] == key:
+                return i
+    return _IMU_OTHER

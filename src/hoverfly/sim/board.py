@@ -3,7 +3,9 @@
 In lockstep the runner advances the physics, samples the IMU model into this board,
 lets the pilot set the transmitter's channels, then calls Flight.step(now_us). The
 receiver bytes or edges for those channels arrive through sim/rxlink.py with the wire's
-timing. Motor commands the core writes cross the wire: the board's output codec
+timing. Its I2C bus 0 (the maintenance protocol's commands 22-23: `i2c_read` / `i2c_write`) holds
+the MPU-6050's register model (sim/regmodels.py) at 0x68, its data registers fed from the IMU
+sample the core last got. Motor commands the core writes cross the wire: the board's output codec
 (core/output.py) encodes them for `motor_protocol`, simulated ESCs (sim/esc.py) decode them
 into what the physics spins next step (one loop of latency, as on hardware), and the output
 timer (`output_tick`) keeps the output failsafe.
@@ -16,6 +18,7 @@ from hoverfly.core.output import OutputEncoder, dshot_speed_kbit
 from hoverfly.core.params import Params
 from hoverfly.protocols.pulsetrain import ReplyPulseDecoder, render_analog, render_dshot, render_reply
 from hoverfly.sim.esc import SimEsc, SimServo
+from hoverfly.sim.regmodels import MPU6050Model
 from hoverfly.sim.rxlink import RxLink
 
 _TELEMETRY_KEEP = 65536  # bytes of CRSF telemetry kept for tests and tools
@@ -40,6 +43,9 @@ class SimBoard(SampledBoard):
         self.current_a = 0.0
         self.led = False
         self.motor_writes = 0
+        # The IMU's registers on I2C bus 0, awake as a driver leaves it at boot (PWR_MGMT_1 = 0).
+        self.i2c_devices = {0: [MPU6050Model()], 1: []}
+        self.i2c_devices[0][0].write(0x6B, b"\x00")
 
     def read_rx(self, buf):
         link = self.rx_link
@@ -143,6 +149,38 @@ class SimBoard(SampledBoard):
                 cmd[m] = esc.receive_pulse_us(out.pulse_us[ln])
         for i in range(out.servo_count):
             self.servo_cmd[i] = self.servos[i].receive_pulse_us(out.servo_us[i])
+
+    # --- maintenance I2C (seed 001 commands 22-23) against the register models
+    def _i2c_device(self, bus, address):
+        for d in self.i2c_devices.get(bus, ()):
+            if d.address == address and not d.absent:
+                return d
+        return None
+
+    def i2c_read(self, bus, address, register):
+        """One register byte of the model at `address`, or the reason there is none (a str)."""
+        d = self._i2c_device(bus, address)
+        if d is None:
+            return "I2C%d 0x%02x: no device answers" % (bus, address)
+        d.set_motion(self.gyro, self.accel)
+        buf = bytearray(1)
+        try:
+            d.read_into(register, buf, 1)
+        except OSError as exc:
+            return "I2C%d 0x%02x register 0x%02x: no answer (%s)" % (bus, address, register, exc)
+        return buf[0]
+
+    def i2c_write(self, bus, address, register, value):
+        """Write one register byte of the model: None, or the reason it failed (a str)."""
+        d = self._i2c_device(bus, address)
+        if d is None:
+            return "I2C%d 0x%02x: no device answers" % (bus, address)
+        try:
+            d.check()
+            d.write(register, bytes((value & 0xFF,)))
+        except OSError as exc:
+            return "I2C%d 0x%02x register 0x%02x: write not acknowledged (%s)" % (bus, address, register, exc)
+        return None
 
     def read_battery(self, signals):
         signals.battery_v = self.battery_v

@@ -154,6 +154,8 @@ class Rp2Board(Board):
         self.status = ""
         self.imu = None
         self.imu_status = "not started"
+        self._i2c = None  # the IMU's machine.I2C (bus P.I2C_ID): the maintenance I2C commands use it too
+        self.i2c_errors = 0
         self.imu_read_errors = 0
         self._imu_error_run = 0
         self._uart = None
@@ -255,6 +257,7 @@ class Rp2Board(Board):
             elif kind in IMU_TYPES:
                 i2c = machine.I2C(P.I2C_ID, scl=machine.Pin(P.I2C_SCL), sda=machine.Pin(P.I2C_SDA),
                                   freq=P.I2C_FREQ_HZ)
+                self._i2c = i2c
                 if kind == "auto":
                     from hoverfly.drivers.imu import detect_i2c
 
@@ -736,6 +739,43 @@ class Rp2Board(Board):
         if port != SERIAL_CONFIG or self._usb is None:
             return 0
         return self._usb.write(data, n)
+
+    # ------------------------------------------------------------ maintenance: I2C (seed 001 commands 22-23)
+    def _i2c_bus(self, bus):
+        """The machine.I2C of `bus`, or the reason there is none. Only the IMU's bus has pins on this board."""
+        if bus != P.I2C_ID:
+            return None, "I2C%d has no pins on this board: the IMU bus is I2C%d" % (bus, P.I2C_ID)
+        if self._i2c is None:  # an SPI IMU: the I2C pads are free, open the bus on them
+            try:
+                self._i2c = machine.I2C(P.I2C_ID, scl=machine.Pin(P.I2C_SCL), sda=machine.Pin(P.I2C_SDA),
+                                        freq=P.I2C_FREQ_HZ)
+            except (ValueError, OSError) as exc:
+                return None, "I2C%d cannot be opened: %s" % (bus, exc)
+        return self._i2c, None
+
+    def i2c_read(self, bus, address, register):
+        """One register byte (0..255) read through machine.I2C, or the reason it could not be (a str).
+        The maintenance server calls it only while disarmed (it shares the IMU's bus)."""
+        i2c, why = self._i2c_bus(bus)
+        if i2c is None:
+            return why
+        try:
+            return i2c.readfrom_mem(address, register, 1)[0]
+        except OSError as exc:
+            self.i2c_errors += 1
+            return "I2C%d 0x%02x register 0x%02x: no answer (%s)" % (bus, address, register, exc)
+
+    def i2c_write(self, bus, address, register, value):
+        """Write one register byte through machine.I2C: None, or the reason it failed (a str)."""
+        i2c, why = self._i2c_bus(bus)
+        if i2c is None:
+            return why
+        try:
+            i2c.writeto_mem(address, register, bytes((value & 0xFF,)))
+        except OSError as exc:
+            self.i2c_errors += 1
+            return "I2C%d 0x%02x register 0x%02x: write not acknowledged (%s)" % (bus, address, register, exc)
+        return None
 
 
 class _SpiDevice:
