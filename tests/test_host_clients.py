@@ -284,10 +284,18 @@ def test_bad_or_refused_urls_are_one_line_errors(capsys, url, words):
 
 
 def test_the_wrong_port_is_a_one_line_error_without_traceback(sim):
-    r = subprocess.run([HOVERFLY, "maint", "--port", sim.cli_url, "--timeout", "0.2", "read", "body_roll"],
+    # The CLI/MSP port also answers the maintenance protocol (as the Pico's USB does); the UART's
+    # maintenance-only port has no CLI.
+    r = subprocess.run([HOVERFLY, "params", "get", "p_roll", "--port", sim.maint_url, "--timeout", "0.2"],
                        capture_output=True, text=True, timeout=20)
-    assert r.returncode == 2 and r.stderr.startswith("hoverfly: error: no maintenance reply")
+    assert r.returncode == 2 and r.stderr.startswith("hoverfly: error: no CLI prompt")
     assert len(r.stderr.strip().splitlines()) == 1
+
+
+def test_the_cli_and_msp_port_also_answers_the_maintenance_protocol(sim):
+    r = subprocess.run([HOVERFLY, "maint", "--port", sim.cli_url, "--timeout", "2", "read", "body_roll"],
+                       capture_output=True, text=True, timeout=20)
+    assert r.returncode == 0 and r.stdout.startswith("body_roll"), r.stderr
 
 
 # ------------------------------------------------------------------------------------ persistence

@@ -153,7 +153,13 @@ def test_eeprom_write_acc_calibration_and_reboot():
     f.signals.attitude.roll_rad = 0.01
     assert _ask(s, msp.MSP_ACC_CALIBRATION)[0] == msp.DIR_REPLY
     assert abs(f.params.get("acc_trim_roll") - 0.573) < 0.01
-    assert _ask(s, msp.MSP_REBOOT) == (msp.DIR_REPLY, b"\x00") and s.reboot_requested
+    # A board that cannot reboot says so; one that can reboots once the reply is written.
+    assert _ask(s, msp.MSP_REBOOT)[0] == msp.DIR_ERROR and "cannot reboot" in s.last_error
+    events = []
+    s.on_reboot = lambda: events.append("reboot")
+    out = []
+    s.feed(msp.encode_request(msp.MSP_REBOOT), 6, lambda b: (out.append(b), events.append("reply")))
+    assert events == ["reply", "reboot"] and msp.DIR_REPLY == out[0][2]
     assert _ask(s, msp.MSP_REBOOT, b"\x01")[0] == msp.DIR_ERROR
 
 

@@ -32,6 +32,7 @@ ALIASES = {
     "dshot_idle_value": ("motor_idle_pct", 0.01),  # Betaflight: percent x 100
     "failsafe_delay": ("fs_delay_ms", 100),  # Betaflight: tenths of a second
     "gyro_calib_duration": ("gyro_cal_ms", 10),  # Betaflight: hundredths of a second
+    "serial_update_rate_hz": ("serial_update_hz", 1),  # seed 004: `set serial_update_rate_hz = 2000`
 }
 
 HELP = (
@@ -325,4 +326,6 @@ class CliServer:
         if line is not None:
             out.append("Board: %s" % line())
         out.append("Config session: %d" % getattr(f, "config_session", 0))
+        if getattr(self, "links", None) is not None:  # set by core/links.py: requests, waits and drops of the ports
+            out.append(self.links.status_line())
         return out

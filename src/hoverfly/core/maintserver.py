@@ -67,11 +67,28 @@ class MaintServer:
         self.field_errors = 0  # telemetry values that could not be read or did not fit their wire type
         self.last_field_error = ""
         self.last_error = None
+        self.served = 0  # requests answered by the last serve()
 
     def close(self):
-        """The client went away: release motor control and the arming lock."""
-        self._motor_control(False)
+        """The client went away: its session ends before another is served. Motor control (the
+        props-off acknowledgement), the motor test it drove, its arming lock and any partial or
+        queued frame go with it."""
+        # SAFETY: the next client must not inherit motor control or spinning motors.
+        if self.motor_control:
+            self._motor_control(False)
         self.parser.reset()
+
+    def in_frame(self):
+        """True while a frame is half received."""
+        return self.parser.in_frame()
+
+    def idle(self):
+        """The line has been quiet past the inter-byte timeout: a half frame will never complete."""
+        self.parser.idle()
+
+    def pending(self):
+        """Requests parsed and not yet answered (serve() stopped at its budget)."""
+        return self.parser.pending()
 
     def _motor_control(self, on):
         f = self.flight
@@ -84,9 +101,29 @@ class MaintServer:
         f.config_session = (s | CONFIG_MAINT) if on else (s & ~CONFIG_MAINT)
 
     def feed(self, data, n, write):
-        self.parser.feed(data, n)
+        """Answer every request in data[:n], in order."""
+        i = 0
+        while True:
+            i = self.serve(data, i, n, write, 64)
+            if i >= n and not self.parser.pending():
+                return
+
+    def serve(self, data, start, n, write, budget):
+        """Answer the requests in data[start:n] in order, at most `budget` of them; return where it
+        stopped (n once every byte was taken). The parser is fed only as many bytes as its queue
+        holds, so no request is overwritten; `served` says how many were answered."""
         p = self.parser
-        while p.pop():
+        i = start
+        done = 0
+        while done < budget:
+            if not p.pending():
+                if i >= n:
+                    break
+                i = p.feed_some(data, i, n)
+                if not p.pending():
+                    break
+            p.pop()
+            done += 1
             self.requests += 1
             err = self._request(p)
             h = self.header
@@ -106,6 +143,8 @@ class MaintServer:
                     values[name] = self.field(name)
             n_out = mp.encode_reply_into(self.buf, h, values, self.layout)
             write(bytes(self.buf[:n_out]))
+        self.served = done
+        return i
 
     # ----------------------------------------------------------------- requests
     def _request(self, p):

@@ -23,6 +23,7 @@ from hoverfly.core.arming import REASONS
 from hoverfly.core.autopilot import AP_ENABLED, LATCH_HARD
 from hoverfly.core.control import MODE_ANGLE, MODE_HORIZON
 from hoverfly.core.failsafe import IDLE
+from hoverfly.core.motortest import STOP_LINK
 from hoverfly.core.scheduler import PS_CYCLE
 from hoverfly.protocols import msp
 
@@ -76,26 +77,64 @@ class MspServer:
         self.last_error = None
         self.arming_disabled = False  # SET_ARMING_DISABLED(1) from this session
         self.reboot_requested = False
+        self.on_reboot = None  # the board's reboot, called once the REBOOT reply has been written
+        self.served = 0  # requests answered by the last serve()
         self._rc = [1500] * 18
 
     # ----------------------------------------------------------------- session
     def close(self):
-        """The client went away: drop its arming lock and any partial frame."""
+        """The client went away: its session ends before another is served. The props-off
+        acknowledgement, the motor test it drove, its arming lock, a pending reboot and any partial
+        or queued frame all go with it."""
+        # SAFETY: the next client must not inherit the props-off acknowledgement or spinning motors.
         if self.arming_disabled:
             self.arming_disabled = False
-            _set_session(self.flight, CONFIG_MSP, False)
+            mt = getattr(self.flight, "motor_test", None)
+            if mt is not None and getattr(mt, "active", False):
+                mt.stop(STOP_LINK)
+        _set_session(self.flight, CONFIG_MSP, False)
+        self.reboot_requested = False
         self.parser.reset()
 
     def in_frame(self):
         """True while a frame is half received (a '#' then belongs to it, not to the CLI)."""
-        return self.parser._pos != 0
+        return self.parser.in_frame()
+
+    def idle(self):
+        """The line has been quiet past the inter-byte timeout: a half frame will never complete."""
+        self.parser.idle()
+
+    def pending(self):
+        """Requests parsed and not yet answered (serve() stopped at its budget)."""
+        return self.parser.pending()
 
     def feed(self, data, n, write):
-        self.parser.feed(data, n)
+        """Answer every request in data[:n], in order."""
+        i = 0
+        while True:
+            i = self.serve(data, i, n, write, 64)
+            if i >= n and not self.parser.pending():
+                return
+
+    def serve(self, data, start, n, write, budget):
+        """Answer the requests in data[start:n] in order, at most `budget` of them (the links task's
+        share for this port in this run); return where it stopped: n once every byte was taken. The
+        parser is fed only as many bytes as its queue holds, so no request is ever overwritten: what
+        is left waits, unread, for the next run. `served` says how many were answered."""
         p = self.parser
-        while p.pop():
+        i = start
+        done = 0
+        while done < budget:
+            if not p.pending():
+                if i >= n:
+                    break
+                i = p.feed_some(data, i, n)
+                if not p.pending():
+                    break
+            p.pop()
             if p.direction != msp.DIR_REQUEST:
                 continue  # replies and errors from the other side are not ours to answer
+            done += 1
             self.requests += 1
             reply = self.handle(p.cmd, p.payload, p.length)
             if reply is None:
@@ -103,6 +142,15 @@ class MspServer:
                 write(msp.encode_reply(p.version, p.cmd, b"", True, p.encapsulated))
             else:
                 write(msp.encode_reply(p.version, p.cmd, reply, False, p.encapsulated))
+            if self.reboot_requested and self.on_reboot is not None:
+                # The reply is written: now the board may restart (the sim rebuilds its flight, the
+                # Pico resets). Nothing after a reboot belongs to this flight.
+                self.reboot_requested = False
+                self.on_reboot()
+                self.served = done
+                return n
+        self.served = done
+        return i
 
     def _refuse(self, reason):
         self.last_error = reason
@@ -212,6 +260,8 @@ class MspServer:
             mode = msp.unpack_reboot(payload, length)
             if mode != 0:
                 return self._refuse("only a firmware reboot (mode 0) is supported")
+            if self.on_reboot is None:
+                return self._refuse("this board cannot reboot from MSP: power-cycle it")
             self.reboot_requested = True
             return msp.pack_reboot(0)
         self.unknown += 1

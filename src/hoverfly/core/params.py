@@ -186,6 +186,7 @@ PARAMS = (
     ("ap_timeout_ms",      200,   20,    5000,   "ms",          LIVE,   "no MSP RC this long = autopilot silent: pilot or failsafe flies"),
     ("ap_override_pct",     10,    1,     100,   "%",           LIVE,   "pilot roll/pitch stick beyond this replaces the autopilot's"),
     # --- configuration links (CLI, MSP, maintenance protocol, storage)
+    ("serial_update_hz",   100,  100,    2000,   "Hz",          REBOOT, "configuration links task rate (MSP, CLI, maintenance; Betaflight serial_update_rate_hz), above loop_hz = every pass"),
     # --- flight log
     ("blackbox_rate_hz",  1000,    0,    8000,   "Hz",          LIVE,   "flight-log rate of the fast topics, capped at loop_hz (replay needs loop_hz); 0 = off"),
     # --- board (rp2 pins and devices)

@@ -136,8 +136,10 @@ class FrameScanner:
     A subclass gives `_frame_len(src, i, avail)` (-1 = need more header bytes, 0 = impossible header,
     counted by the subclass, else the frame's total length) and `_check(src, i, total)` (-1 = bad,
     counted; 0 = valid but nothing to deliver; 1 = deliver). Delivered frames are copied whole into
-    one of `queue_depth` preallocated slots; `_next()` hands the oldest out. When the queue is full
-    the oldest frame is overwritten and counted in `dropped`.
+    one of `queue_depth` preallocated slots; `_next()` hands the oldest out. `feed` takes every byte:
+    when the queue is full the oldest frame is overwritten and counted in `dropped`. A server that
+    must answer every request uses `feed_some` instead: it stops at a full queue and says how far it
+    got, so the caller pops, answers and feeds the rest (nothing is overwritten).
 
     Counters: `frames` (delivered), `crc_errors`, `resyncs` (bytes skipped hunting for a frame
     start, plus false syncs), `length_errors` (impossible headers), `dropped`, `bytes`.
@@ -157,6 +159,7 @@ class FrameScanner:
         self._pos = 0  # bytes of a partial frame held in _buf
         self._want = 0  # its total length once known, else 0
         self._new = 0
+        self._hold = False  # feed_some: stop scanning at a full queue
         self._frame_total = 0  # length of the frame _next() handed out
         self.frames = 0
         self.crc_errors = 0
@@ -174,6 +177,20 @@ class FrameScanner:
         self._new = 0
         self._scan(data, 0, n)
         return self._new
+
+    def feed_some(self, data, start, n):
+        """Take data[start:n] until the queue is full; return where it stopped (n when all was taken).
+        The bytes from there on were not looked at: hand them in again once frames have been popped."""
+        self._new = 0
+        self._hold = True
+        end = self._scan(data, start, n)
+        self._hold = False
+        self.bytes += end - start
+        return end
+
+    def in_frame(self):
+        """True while a frame is half received."""
+        return self._pos != 0
 
     def pending(self):
         """Frames waiting in the queue."""
@@ -208,8 +225,11 @@ class FrameScanner:
         return self._slots[k]
 
     def _scan(self, src, i, n):
+        """Scan src[i:n]; return where it stopped: n, or (feed_some) the first byte not taken."""
         sync = self._sync_byte
         while i < n:
+            if self._hold and self._count >= self._depth:
+                return i
             if self._pos:
                 i = self._assemble(src, i, n)
                 continue
@@ -220,14 +240,14 @@ class FrameScanner:
             total = self._frame_len(src, i, n - i)
             if total < 0:
                 self._stash(src, i, n, 0)
-                return
+                return n
             if total == 0 or total > self._max_frame:
                 self.resyncs += 1
                 i += 1
                 continue
             if n - i < total:
                 self._stash(src, i, n, total)
-                return
+                return n
             r = self._check(src, i, total)
             if r < 0:
                 self.resyncs += 1  # skip only the false sync byte and search the rest again
@@ -236,6 +256,7 @@ class FrameScanner:
                 if r:
                     self._deliver(src, i, total)
                 i += total
+        return n
 
     def _stash(self, src, i, n, total):
         buf = self._buf
@@ -284,7 +305,9 @@ class FrameScanner:
 
     def _rescan(self, m):
         # As the one-chunk path does: drop the sync byte, search buf[1:m] again. The rescan starts
-        # with no partial frame, so it can only stash (never complete) one: no recursion.
+        # with no partial frame, so it can only stash (never complete) one: no recursion. The bytes
+        # are already taken, so the rescan does not stop at a full queue (feed_some): a frame it
+        # finds then overwrites the oldest, counted in `dropped`.
         self.resyncs += 1
         buf = self._buf
         scratch = self._scratch
@@ -292,7 +315,10 @@ class FrameScanner:
             scratch[k - 1] = buf[k]
         self._pos = 0
         self._want = 0
+        hold = self._hold
+        self._hold = False
         self._scan(scratch, 0, m - 1)
+        self._hold = hold
 
     def _deliver(self, src, i, total):
         depth = self._depth

@@ -3,11 +3,14 @@
 Takes an airframe, two TCP port numbers and an optional storage file; gives a running simulated
 flight controller whose CLI + MSP port (default 5761, as Betaflight's SITL) and seed-001
 maintenance port (5762) accept one TCP client each. The sockets are non-blocking and polled by
-the flight core's links task (core/links.py, 100 Hz) through the sim board's serial seam, so a
-client that connects, floods, stops reading or disconnects never stalls the flight loop: a newer
-connection replaces an older one, a disconnect ends that port's session, and replies a client
-does not read are dropped past OUT_LIMIT bytes. The parameter image is the `--storage` file,
-written in place (core/storage.py's two slots make a cut write harmless).
+the flight core's links task (core/links.py, at serial_update_hz) through the sim board's serial
+seam, so a client that connects, floods, stops reading or disconnects never stalls the flight loop:
+a newer connection replaces an older one, and a disconnect or a replacement ends that port's
+session (the links task sees a read of -1 before the next client's first byte); replies a client
+does not read are dropped past OUT_LIMIT bytes (counted). The parameter image is the `--storage`
+file, written in place (core/storage.py's two slots make a cut write harmless). MSP_REBOOT
+restarts the simulated controller as a board would: a new flight from the stored parameters, the
+craft back on the ground, the TCP listeners and their clients kept.
 """
 
 import os
@@ -86,7 +89,7 @@ class TcpPorts:
         conn.setblocking(False)
         conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         if self.clients[pid] is not None:
-            self._drop(pid)  # the newer client wins; the old session ends
+            self._drop(pid)  # the newer client wins; read() reports the old one gone first
         self.clients[pid] = conn
         self.accepted += 1
 
@@ -102,13 +105,15 @@ class TcpPorts:
         self.gone[pid] = True
 
     def read(self, pid, buf):
+        """Bytes from the port's client into buf: their count, 0 for none, or -1 once for a client that
+        went away or was replaced, before any byte of the next one (its session must close first)."""
         self._accept(pid)
+        if self.gone[pid]:
+            self.gone[pid] = False
+            return -1
         self._flush(pid)
         c = self.clients[pid]
         if c is None:
-            if self.gone[pid]:
-                self.gone[pid] = False
-                return -1
             return 0
         try:
             n = c.recv_into(buf)
@@ -162,26 +167,42 @@ class SimServer:
 
     def __init__(self, airframe="5inch", msp_port=DEFAULT_MSP_PORT, maint_port=DEFAULT_MAINT_PORT,
                  storage_path=None, duration_s=None, seed=1, mode="angle", log_path=None):
-        from hoverfly.sim.runner import SimRun
-
         if duration_s is not None and not (0 < duration_s <= _FOREVER_S):
             raise UserError("--duration must be more than 0 s")
+        self._boot_args = (airframe, seed, mode, log_path, storage_path,
+                           duration_s if duration_s is not None else _FOREVER_S)
+        self.ports = None
+        self._boot()
+        self.ports = TcpPorts({SERIAL_CONFIG: msp_port, SERIAL_MAINT: maint_port})
+        self.run.board.serial = self.ports
+        self.stop_requested = False
+        self.reboot_requested = False
+        self.reboots = 0
+        self.result = None
+
+    def _boot(self):
+        """Build the run, load the stored parameters and attach the links: at start and at each reboot."""
+        from hoverfly.sim.runner import SimRun
+
+        airframe, seed, mode, log_path, storage_path, duration_s = self._boot_args
         scenario = {"name": "sim", "duration_s": 3600.0, "mode": mode, "events": [], "params": {}}
         self.run = SimRun(airframe, scenario, seed, (), 3600.0, realtime=True, log_path=log_path)
-        self.run.duration_s = duration_s if duration_s is not None else _FOREVER_S
+        self.run.duration_s = duration_s
         board = self.run.board
         board.storage_path = storage_path
+        board.serial = self.ports
         self.storage = Storage(board)
         self.storage_status = self.storage.load(self.run.params)
         self.flight = self.run.flight
         self.flight.storage = self.storage
-        self.ports = TcpPorts({SERIAL_CONFIG: msp_port, SERIAL_MAINT: maint_port})
-        board.serial = self.ports
-        self.links = attach(self.flight, self.storage)
-        self.stop_requested = False
+        self.links = attach(self.flight, self.storage)  # after the load: serial_update_hz is a reboot parameter
+        self.links.config.msp.on_reboot = self._reboot
         self._chained = self.run.on_step
         self.run.on_step = self._on_step
-        self.result = None
+
+    def _reboot(self):
+        # Called by the MSP server once the reply is written: the restart happens between two passes.
+        self.reboot_requested = True
 
     def describe(self):
         msp_addr = self.ports.address(SERIAL_CONFIG)
@@ -196,11 +217,21 @@ class SimServer:
             self._chained(run)
         if self.stop_requested:
             raise _Stop()
+        if self.reboot_requested:
+            raise _Reboot()
 
     def serve(self):
-        """Run until the duration ends, stop() is called or Ctrl-C; returns the flight summary."""
+        """Run until the duration ends, stop() is called or Ctrl-C; returns the flight summary.
+        A reboot (MSP_REBOOT) ends the run and starts a new one from storage on the same ports."""
         try:
-            self.result = self.run.run()
+            while True:
+                try:
+                    self.result = self.run.run()
+                    break
+                except _Reboot:
+                    self.reboot_requested = False
+                    self.reboots += 1
+                    self._boot()
         except _Stop:
             pass
         finally:
@@ -212,4 +243,8 @@ class SimServer:
 
 
 class _Stop(Exception):
+    pass
+
+
+class _Reboot(Exception):
     pass
