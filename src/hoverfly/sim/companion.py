@@ -13,8 +13,8 @@ tick. A `!` reply to SET_RAW_RC is a refusal; the poll answered after it says wh
 autopilot's last result code, worded as core/autopilot.py words it).
 
 Without a board (the firmware bridge, sim/bridge.py: it carries no serial bytes) each frame
-goes through the MSP codec (a SET_RAW_RC request, parsed back as the MSP server parses it)
-and into `flight.on_msp_rc`, which the bridge sends across as an MSP_RC frame.
+is the same request's bytes, parsed here as the MSP server parses them, its channels handed to
+`flight.on_msp_rc`, which the bridge sends across at once as an MSP_RC frame.
 It counts what was taken and why the rest was refused.
 """
 
@@ -23,8 +23,6 @@ from hoverfly.core.board import SERIAL_CONFIG
 from hoverfly.core.links import attach
 from hoverfly.errors import UserError
 from hoverfly.protocols import msp
-
-_MAPS = {"AETR": (0, 1, 3, 2), "TAER": (1, 2, 3, 0), "RETA": (3, 2, 1, 0)}  # roll, pitch, yaw, throttle
 
 
 def _clamp(x, lo, hi):
@@ -75,6 +73,7 @@ class Companion:
         # the in-process flight: MSP bytes through the board's serial port; else (bridge) on_msp_rc
         self.port = wire_up(flight, board) if board is not None else None
         self._replies = msp.MspParser(max_payload=64, queue_depth=16)
+        self._bridge_parser = msp.MspParser(max_payload=64, queue_depth=1)
         self._waiting_reason = 0  # SET_RAW_RC refusals whose poll reply is still to come
         self._counted = 0  # the autopilot's frames + rejected at the last poll reply
         self.status = None  # the last MSP2_HOVERFLY_AUTOPILOT reply (msp.unpack_autopilot)
@@ -84,7 +83,8 @@ class Companion:
         self.hold_altitude_m = None
         self._alt_i = 0.0
         self._last_t = 0.0
-        self.map = _MAPS[params.get("map_aetr")]
+        rc = flight.rc  # the channel map the flight reads MSP RC with, as the receiver's (Betaflight's rcmap)
+        self.map = (rc.roll_ch, rc.pitch_ch, rc.yaw_ch, rc.throttle_ch)
         self.arm_ch = params.get("arm_ch")
         self.sending = False
         self.rate_hz = 100.0
@@ -146,8 +146,14 @@ class Companion:
             self.port.to_fc += msp.encode_request(msp.MSP_SET_RAW_RC, payload)
             self.port.to_fc += msp.encode_request(msp.MSP2_HOVERFLY_AUTOPILOT, b"", 2)
             return
-        # the bridge: over the wire format and back, as the MSP server would see it
-        channels = msp.unpack_set_raw_rc(payload, len(payload))
+        # the bridge: the request's bytes parsed as the MSP server parses them, its channels handed across
+        frame = msp.encode_request(msp.MSP_SET_RAW_RC, payload)
+        p = self._bridge_parser
+        p.feed(frame)
+        if not p.pop():
+            self._result("the SET_RAW_RC frame did not parse")
+            return
+        channels = msp.unpack_set_raw_rc(p.payload, p.length)
         fn = getattr(self.flight, "on_msp_rc", None)
         self._result("no MSP RC in this firmware" if fn is None else fn(now_us, channels, len(channels)))
 
