@@ -418,7 +418,7 @@ class MaintServer:
                 return 0
             v = s.motor_out[k]
             mt = getattr(f, "motor_test", None)
-            if mt is not None and mt.active and not f.arming.armed and hasattr(mt, "values"):
+            if mt is not None and (mt.active or self.motor_control) and not f.arming.armed and hasattr(mt, "values"):
                 v = mt.values[k]  # what the test drives from the next pass on (a capped value reads capped)
             return 1000 + int((v if v > 0.0 else 0.0) * 1000.0 + 0.5)
         if name == "motors_armed":
