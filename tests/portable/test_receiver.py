@@ -386,7 +386,7 @@ def test_throttle_bands_pick_descend_hover_or_climb():
 
 
 def test_alpha_beta_smoothing_follows_a_step_and_alpha_one_passes_through():
-    rc = _rc(rc_smooth_type="alphabeta", rc_ab_alpha=0.1, rc_ab_beta=0.005)
+    rc = _rc(rc_smooth_type="alphabeta", ab_thr_alpha=0.1, ab_thr_beta=0.005)
     sp = Setpoint()
     rc.new_frame(_frame(2000))
     for _ in range(3):
@@ -395,7 +395,7 @@ def test_alpha_beta_smoothing_follows_a_step_and_alpha_one_passes_through():
     for _ in range(500):
         rc.update(sp)
     assert abs(sp.throttle_norm - 1.0) < 0.01
-    rc = _rc(rc_smooth_type="alphabeta", rc_ab_alpha=1.0, rc_ab_beta=0.0)
+    rc = _rc(rc_smooth_type="alphabeta", ab_thr_alpha=1.0, ab_thr_beta=0.0)
     rc.new_frame(_frame(1700))
     rc.update(sp)
     assert abs(sp.throttle_norm - 0.7) < 1e-6

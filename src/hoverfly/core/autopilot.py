@@ -35,6 +35,7 @@ from hoverfly.core.events import (
     EV_AUTOPILOT_ENABLED,
     EV_AUTOPILOT_OVERRIDE,
 )
+from hoverfly.core.rc import aux_channel, map_channels
 
 AP_OFF = const(0)  # autopilot switch off: the pilot flies and arms
 AP_WAIT = const(1)  # switch on, waiting for the arm switch to come on after it
@@ -95,8 +96,6 @@ _SOFT_ROLL = const(1)
 _SOFT_PITCH = const(2)
 _SOFT_THROTTLE = const(4)
 
-_MAPS = {"AETR": (0, 1, 3, 2), "TAER": (1, 2, 3, 0), "RETA": (3, 2, 1, 0)}  # roll, pitch, yaw, throttle
-
 
 def arm_refusal_text(bit):
     """on_msp_rc's reason when the autopilot's arm request meets arming reason `bit`."""
@@ -144,13 +143,14 @@ class Autopilot:
         self._msp_disarm_frames = 0
 
     def configure(self, params):
-        self.ch = params.get("ap_ch")
+        chmap = map_channels(params.get("rc_map"))  # the frames come in the receiver's order (rc_map)
+        self.ch = aux_channel(chmap, params.get("ap_ch"))
         self.lo_us = params.get("ap_min_us")
         self.hi_us = params.get("ap_max_us")
         self.timeout_us = params.get("ap_timeout_ms") * 1000
         self.override_norm = params.get("ap_override_pct") * 0.01
-        self.map = _MAPS[params.get("map_aetr")]
-        self.arm_ch = params.get("arm_ch")
+        self.map = (chmap[0], chmap[1], chmap[2], chmap[3])  # roll, pitch, yaw, throttle
+        self.arm_ch = aux_channel(chmap, params.get("arm_ch"))
         if params.get("arm_source") == "seed001":
             self.arm_lo_us = 1501
             self.arm_hi_us = 0x10000

@@ -1,4 +1,4 @@
-"""Betaflight-style CLI on a byte stream: help, get, set, dump, diff, save, defaults, status, exit.
+"""Betaflight-style CLI on a byte stream: help, get, set, dump, diff, map, save, defaults, status, exit.
 
 Takes the bytes typed on the CLI/MSP port after `#` entered the CLI (`CliServer.feed(data, n,
 write)`, any chunking; CR or LF ends a line, backspace edits, characters are echoed as
@@ -13,6 +13,7 @@ from hoverfly import __version__
 from hoverfly.core.arming import reason_names
 from hoverfly.core.mspserver import CONFIG_CLI, reason_words
 from hoverfly.core.params import INDEX, PARAMS, REBOOT, check_value, is_choice, row
+from hoverfly.core.rc import map_text, map_value
 from hoverfly.core.scheduler import PS_CYCLE, PS_CYCLE_MAX, PS_JITTER_MAX
 from hoverfly.core.storage import STATUS_NAMES
 
@@ -41,6 +42,7 @@ HELP = (
     "set name = value          change a parameter (set alone lists all)",
     "dump                      every parameter as set lines",
     "diff [all]                only what differs from the defaults",
+    "map [AETR1234]            show or set the channel map (rc_map): a letter per receiver channel",
     "save                      write the parameters to storage and leave the CLI",
     "defaults [nosave]         reset to defaults (and save, unless nosave)",
     "status                    arming, loop, sensors, link, storage",
@@ -166,6 +168,8 @@ class CliServer:
             out = self.cmd_defaults(arg)
         elif cmd == "status":
             out = self.cmd_status()
+        elif cmd == "map":
+            out = self.cmd_map(arg)
         elif cmd == "batch":
             out = []  # pasted diffs carry 'batch start' / 'batch end': nothing to do
         elif cmd == "exit":
@@ -246,6 +250,22 @@ class CliServer:
         self.flight.params.set(name, v)
         note = "  (applies after a reboot)" if row(name)[5] == REBOOT else ""
         return ["%s set to %s%s" % (name, format_value(v), note)]
+
+    def cmd_map(self, arg):
+        """Betaflight's `map`: alone it prints the map ("map AETR1234": the function of receiver channels 1..8,
+        A E R T = roll pitch yaw throttle, 1..4 = AUX1..4); with 8 letters (any order, each once) it sets
+        rc_map, refused while armed."""
+        params = self.flight.params
+        if arg:
+            refused = self._armed_refusal("map")
+            if refused:
+                return [refused]
+            value, err = map_value(arg)
+            if err is None:
+                err = params.set("rc_map", value)
+            if err is not None:
+                return ["###ERROR: %s###" % err]
+        return ["map %s" % map_text(params.get("rc_map"))]
 
     def cmd_dump(self, only_changed):
         p = self.flight.params

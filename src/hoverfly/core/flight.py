@@ -598,6 +598,8 @@ class Flight:
             sticks_moved = (abs(rc.stick_raw[0]) > 0.3 or abs(rc.stick_raw[1]) > 0.3)
             fs.update(now_us, link_lost, self.last_frame_us, arming.armed, sticks_moved, arming,
                       CAUSE_SWITCH if self.fs_switch else CAUSE_NO_FRAMES, switch_stage2)
+        if rc.yaw_hold:  # the heading hold's yaw rate, here at 100 Hz rather than in every pass
+            rc.hold_heading(arming.armed, s.attitude.yaw_rad)
         self._who_flies()
         if self.params.changed != self._configured_at and not arming.armed:
             self.configure()

@@ -96,17 +96,19 @@ PARAMS = (
     ("pitch_expo",           0,    0,     100,   "%",           LIVE,   "pitch expo"),
     ("yaw_expo",             0,    0,     100,   "%",           LIVE,   "yaw expo"),
     # --- angle and horizon (the PIFF shape of seed 002)
-    ("angle_limit",         60,   10,      90,   "deg",         LIVE,   "angle mode: tilt at full stick"),
+    ("angle_limit",         60,    5,      90,   "deg",         LIVE,   "angle mode: tilt at full stick (seed 001: 5)"),
     ("angle_p_gain",        50,    0,     200,   "0.1/s",       LIVE,   "angle mode: deg/s of rate per 0.1 deg of error"),
     ("angle_ff",            50,    0,     200,   "%",           LIVE,   "angle mode: feed-forward of the angle setpoint's speed"),
     ("angle_rate_limit",   500,   50,    2000,   "deg/s",       LIVE,   "angle mode: largest rate setpoint"),
     ("horizon_level",   50,    0,     100,   "%",           LIVE,   "horizon: levelling strength at centre stick"),
+    ("yaw_hold",             0,    0,       1,   "",            LIVE,   "yaw stick centred: hold the heading it was centred at (seed 001 holds yaw)"),
+    ("yaw_hold_p",         2.0,  0.1,    20.0,   "1/s",         LIVE,   "heading hold: yaw rate per radian of heading error"),
     # --- receiver and pilot input
     ("rc_smoothing_hz",     40,    0,     250,   "Hz",          LIVE,   "setpoint smoothing (PT2), 0 = off"),
     ("deadband",             5,    0,      32,   "us",          LIVE,   "roll/pitch stick deadband around centre"),
     ("yaw_deadband",         5,    0,     100,   "us",          LIVE,   "yaw stick deadband around centre"),
     ("min_check",         1050,  750,    2250,   "us",          LIVE,   "throttle below this counts as low"),
-    ("map_aetr",        "AETR",    0,      0,    ("AETR", "TAER", "RETA"), LIVE, "channel order of the first four"),
+    ("rc_map",       12435678, 12345678, 87654321, "",         LIVE,   "receiver channel per function, digits roll pitch yaw throttle AUX1-4 (CLI map: AETR1234 = 12435678)"),
     ("arm_ch",               5,    0,      18,   "ch",          LIVE,   "arm switch channel (AUX1 = 5), 0 = none"),
     ("arm_min_us",        1700,  900,    2100,   "us",          LIVE,   "arm switch range start"),
     ("arm_max_us",        2100,  900,    2100,   "us",          LIVE,   "arm switch range end"),
@@ -142,8 +144,6 @@ PARAMS = (
     ("rx_pwm_channels",      6,    1,      16,   "ch",          REBOOT, "pwm receiver: channels captured, one pin each (FS-IA6: 6)"),
     ("crsf_telemetry",       1,    0,       1,   "",            LIVE,   "CRSF: send battery, attitude and flight mode back to the receiver"),
     ("rc_smooth_type",   "pt2",    0,       0,   ("pt2", "pt1", "alphabeta"), LIVE, "stick smoothing: PT2/PT1 at rc_smoothing_hz, or seed 001's alpha-beta"),
-    ("rc_ab_alpha",        0.1,  0.0,     1.0,   "",            LIVE,   "alpha-beta stick filter: position gain per pass (1 = no smoothing)"),
-    ("rc_ab_beta",       0.005,  0.0,     1.0,   "",            LIVE,   "alpha-beta stick filter: velocity gain per pass (0 = none)"),
     ("ab_thr_alpha",       0.1,  0.0,     1.0,   "",            LIVE,   "alpha-beta filter, throttle stick: position gain per pass"),
     ("ab_thr_beta",      0.005,  0.0,     1.0,   "",            LIVE,   "alpha-beta filter, throttle stick: velocity gain per pass"),
     ("ab_roll_alpha",      0.1,  0.0,     1.0,   "",            LIVE,   "alpha-beta filter, roll stick: position gain per pass"),
@@ -257,7 +257,28 @@ def check_value(name, value):
         value = float(value)
     if value != value or value < lo or value > hi:
         return None, "%s = %s is out of range %s .. %s" % (name, value, lo, hi)
+    extra = _EXTRA_CHECKS.get(name)
+    if extra is not None:
+        err = extra(value)
+        if err is not None:
+            return None, err
     return value, None
+
+
+def rc_map_error(value):
+    """None when rc_map's eight digits name each receiver channel 1..8 once (a permutation), else why not."""
+    seen = 0
+    for _ in range(8):
+        d = value % 10
+        if d < 1 or d > 8 or seen & (1 << d):
+            return "rc_map = %d must name each channel 1..8 once (e.g. 12435678 = map AETR1234)" % value
+        seen |= 1 << d
+        value //= 10
+    return None
+
+
+# Checks a range cannot express, per parameter: fn(value) -> None or the one-line reason.
+_EXTRA_CHECKS = {"rc_map": rc_map_error}
 
 
 class Params:

@@ -1,14 +1,17 @@
 """Pilot input: receiver channels in µs to sticks, throttle, switches and the setpoint.
 
-A new frame (`new_frame`) maps channels (AETR by default), applies the deadband and
+A new frame (`new_frame`) maps channels (rc_map, Betaflight's `map`: any order of the four
+sticks and AUX1..4 on channels 1..8, AETR1234 by default), applies the deadband and
 reads the AUX mode ranges (Betaflight style: channel plus µs range per mode, channel 0 =
 none): ARM, ANGLE, HORIZON and AIRMODE; the FAILSAFE box is read from the raw frame
 (`fs_switch_in`) before it is taken, because with it on the frame counts as lost. Every
 pass (`update`) smooths the sticks (rc_smooth_type: PT2 or PT1 at rc_smoothing_hz, or
-seed 001's alpha-beta; throttle_norm is the raw stick or, with thr_mode = bands, seed
-001's DESCEND/HOVERING/CLIMB value for the stick's third) and turns them into the
-setpoint: rates through the "actual" curve, angles through angle_limit. Stage 3 of the
-pass, with the commander choosing whose input it is.
+seed 001's alpha-beta with a gain pair per stick, ab_<stick>_alpha/_beta; throttle_norm is
+the raw stick or, with thr_mode = bands, seed 001's DESCEND/HOVERING/CLIMB value for the
+stick's third) and turns them into the setpoint: rates through the "actual" curve, angles
+through angle_limit. With yaw_hold a heading hold (`hold_heading`, from the 100 Hz task)
+gives the yaw rate while the yaw stick is centred. Stage 3 of the pass, with the commander
+choosing whose input it is.
 
 In fixed point (with the PT2, where `pid_math` runs the rate loop in fixed point: "auto" on
 MicroPython where the viper twin accel/rc.py loads, "fixed" anywhere) `update` runs `rc_pass`
@@ -17,7 +20,8 @@ curves made 12 of them a pass with one stick moving. The frame's sticks and thro
 (new_frame rounds the same µs arithmetic), the PT2 runs on Q20 states with the float stage's gain in
 Q15, the curve on the stick in Q16 and gives Q16 rad/s; the angle and throttle floats are made only
 when their value changed.
-tests/portable/test_rc_fixed.py holds it to the float stage within a stated bound.
+tests/portable/test_rc_fixed.py holds it to the float stage within a stated bound. Only the PT2 has
+a fixed-point form: with pt1 or alphabeta smoothing `update` runs the float stage on every Python.
 """
 
 import math
@@ -205,7 +209,63 @@ def _throttle_q(t):
         return _ONE20
     return ((t - 1000) * 0x100000 + 500) // 1000  # below 2**30
 
-_MAPS = {"AETR": (0, 1, 3, 2), "TAER": (1, 2, 3, 0), "RETA": (3, 2, 1, 0)}  # roll, pitch, yaw, throttle
+# Betaflight's `map` (CLI `map AETR1234`): one letter per receiver channel 1..8 naming its function. The
+# rc_map parameter keeps the same mapping the other way round, as Betaflight's rcmap does: a digit per
+# function in this order (roll, pitch, yaw, throttle, AUX1..4) giving its receiver channel (1..8).
+MAP_LETTERS = "AERT1234"
+
+
+def map_channels(rc_map):
+    """rc_map (a permutation of 12345678, params.rc_map_error) as a list of 0-based receiver channels, one
+    per function in MAP_LETTERS' order."""
+    out = [0] * 8
+    for i in range(7, -1, -1):
+        out[i] = rc_map % 10 - 1
+        rc_map //= 10
+    return out
+
+
+def aux_channel(chmap, ch):
+    """The receiver channel (1-based) that carries channel setting `ch`: AUX1..4 (5..8) where the map puts
+    them (Betaflight moves AUX letters too), any other channel (and 0 = none) as it is."""
+    if 5 <= ch <= 8:
+        return chmap[ch - 1] + 1
+    return ch
+
+
+def map_text(rc_map):
+    """rc_map as Betaflight prints it: a letter per receiver channel ("AETR1234")."""
+    m = map_channels(rc_map)
+    out = ["?"] * 8
+    for f in range(8):
+        out[m[f]] = MAP_LETTERS[f]
+    return "".join(out)
+
+
+def map_value(text):
+    """(rc_map, None) for a Betaflight map ("TAER1234", any case: each of A E R T 1 2 3 4 once), else (None,
+    the one-line reason)."""
+    s = text.strip().upper()
+    if len(s) != 8:
+        return None, "map takes 8 letters, one per receiver channel (each of A E R T 1 2 3 4 once), e.g. AETR1234"
+    digits = [0] * 8
+    for ch in range(8):
+        f = MAP_LETTERS.find(s[ch])
+        if f < 0:
+            return None, "map: '%s' is not one of A E R T 1 2 3 4" % s[ch]
+        if digits[f]:
+            return None, "map: '%s' appears twice; each of A E R T 1 2 3 4 once" % s[ch]
+        digits[f] = ch + 1
+    v = 0
+    for d in digits:
+        v = v * 10 + d
+    return v, None
+
+
+
+# the alpha-beta filters' parameters, in the filters' order (roll, pitch, yaw, throttle)
+_AB_NAMES = (("ab_roll_alpha", "ab_roll_beta"), ("ab_pitch_alpha", "ab_pitch_beta"), ("ab_yaw_alpha", "ab_yaw_beta"),
+             ("ab_thr_alpha", "ab_thr_beta"))
 
 
 def _gain(k):
@@ -231,6 +291,7 @@ class RcInput:
         self.pitch_ch = 1
         self.yaw_ch = 3
         self.throttle_ch = 2
+        self.map_ch = map_channels(12435678)  # receiver channel per function (MAP_LETTERS' order): AETR1234
         self.deadband_us = 5
         self.yaw_deadband_us = 5
         self.min_check_us = 1050
@@ -276,6 +337,14 @@ class RcInput:
         # keeps its float (-1: none yet, or the configuration changed). Its table: FC_* above.
         self._last_us = array("i", [-1, -1, -1, -1])
         self._fco = array("i", [0] * FC_SIZE)
+        # Yaw heading hold (yaw_hold; hold_heading below): the heading to hold, the yaw rate setpoint that
+        # holds it (worked out at 100 Hz), whether it stands in for the yaw stick's rate now, its gain and cap.
+        self.yaw_hold = False
+        self.holding = False
+        self.heading_rad = 0.0
+        self.hold_rate_rad_s = 0.0
+        self._hold_k = 2.0
+        self._hold_max_rad_s = 0.0
 
     def configure(self, params, loop_hz):
         self._set_fixed(False)  # the float filters hold the state while they are configured
@@ -289,16 +358,17 @@ class RcInput:
             cls = AlphaBeta if kind == "alphabeta" else (Pt1 if kind == "pt1" else Pt2)
             self.filters = (cls(), cls(), cls(), cls())
             self._smooth_type = kind
-        for f in self.filters:
+        for i in range(4):
             if kind == "alphabeta":
-                f.configure(params.get("rc_ab_alpha"), params.get("rc_ab_beta"), loop_hz)
+                names = _AB_NAMES[i]
+                self.filters[i].configure(params.get(names[0]), params.get(names[1]), loop_hz)
             else:
-                f.configure(params.get("rc_smoothing_hz"), loop_hz)
+                self.filters[i].configure(params.get("rc_smoothing_hz"), loop_hz)
         if params.get("thr_mode") == "bands":
             self._thr_bands = (params.get("thr_descend_us"), params.get("thr_hover_us"), params.get("thr_climb_us"))
         else:
             self._thr_bands = None
-        m = _MAPS[params.get("map_aetr")]
+        m = self.map_ch = map_channels(params.get("rc_map"))
         self.roll_ch = m[0]
         self.pitch_ch = m[1]
         self.yaw_ch = m[2]
@@ -307,13 +377,18 @@ class RcInput:
         self.yaw_deadband_us = params.get("yaw_deadband")
         self.min_check_us = params.get("min_check")
         self.angle_limit_rad = params.get("angle_limit") * _DEG
-        self._arm = (params.get("arm_ch"), params.get("arm_min_us"), params.get("arm_max_us"))
-        self._angle = (params.get("angle_ch"), params.get("angle_min_us"), params.get("angle_max_us"))
-        self._horizon = (params.get("horizon_ch"), params.get("horizon_min_us"), params.get("horizon_max_us"))
-        self._airmode = (params.get("airmode_ch"), params.get("airmode_min_us"), params.get("airmode_max_us"))
+        # The switches' channels as the receiver sends them: AUX1..4 where the map put them.
+        self._arm = (aux_channel(m, params.get("arm_ch")), params.get("arm_min_us"), params.get("arm_max_us"))
+        self._angle = (aux_channel(m, params.get("angle_ch")), params.get("angle_min_us"), params.get("angle_max_us"))
+        self._horizon = (aux_channel(m, params.get("horizon_ch")), params.get("horizon_min_us"),
+                         params.get("horizon_max_us"))
+        self._airmode = (aux_channel(m, params.get("airmode_ch")), params.get("airmode_min_us"),
+                         params.get("airmode_max_us"))
         self.airmode_box = self._airmode[0] > 0
-        self._ap = (params.get("ap_ch"), params.get("ap_min_us"), params.get("ap_max_us"))
-        self._fs_switch = (params.get("fs_switch_ch"), params.get("fs_switch_min_us"), params.get("fs_switch_max_us"))
+        self._ap = (aux_channel(m, params.get("ap_ch")), params.get("ap_min_us"), params.get("ap_max_us"))
+        self._fs_switch = (aux_channel(m, params.get("fs_switch_ch")), params.get("fs_switch_min_us"),
+                           params.get("fs_switch_max_us"))
+        self._configure_yaw_hold(params)
         math_kind = params.get("pid_math")
         self._set_fixed(kind == "pt2" and (math_kind == "fixed" or (math_kind == "auto" and HAS_ACCEL)))
         self.frame_table()
@@ -384,8 +459,49 @@ class RcInput:
         """Arm when channel `ch` (1-based, 0 = never) reads min_us <= µs < max_us. configure()
         sets it from arm_ch/arm_min_us/arm_max_us; an arm source with its own rule (seed 001:
         above 1500 µs) sets it after that."""
-        self._arm = (ch, min_us, max_us)
+        self._arm = (aux_channel(self.map_ch, ch), min_us, max_us)
         self.frame_table()
+
+    def _configure_yaw_hold(self, params):
+        """Heading hold on or off. On, update() is the hold's (an instance attribute over the method): the
+        pass with yaw_hold off runs the plain update() with not even a test added."""
+        self.yaw_hold = params.get("yaw_hold") == 1
+        self._hold_k = params.get("yaw_hold_p")
+        self._hold_max_rad_s = self.rates[2].rate_rad_s(1.0)  # no faster than the yaw stick's full rate
+        self.holding = False
+        self.hold_rate_rad_s = 0.0
+        if self.yaw_hold:
+            self.update = self._update_holding
+        else:
+            try:
+                del self.update  # the class's update() again
+            except AttributeError:
+                pass
+
+    def hold_heading(self, armed, yaw_rad):
+        """Heading hold, at 100 Hz (Flight.task_arming; seed 001 holds yaw at its zero): with the yaw stick
+        centred (in its deadband) the yaw rate setpoint steers back to the heading the stick was centred at,
+        yaw_hold_p rad/s per radian of error, capped at the stick's full rate. Disarmed, or with the stick
+        off centre, the heading to hold follows the craft: arming, or centring the stick, sets it there."""
+        if not armed or self.stick_raw[2] != 0.0:
+            self.heading_rad = yaw_rad
+            self.holding = False
+            return
+        err = self.heading_rad - yaw_rad
+        if err > math.pi:
+            err -= 2.0 * math.pi
+        elif err < -math.pi:
+            err += 2.0 * math.pi
+        rate = err * self._hold_k
+        lim = self._hold_max_rad_s
+        self.hold_rate_rad_s = lim if rate > lim else (-lim if rate < -lim else rate)
+        self.holding = True
+
+    def _update_holding(self, sp):
+        """update() with the heading hold on: the stick shaping, then the hold's yaw rate while it holds."""
+        RcInput.update(self, sp)
+        if self.holding:
+            sp.rate_rad_s[2] = self.hold_rate_rad_s
 
     def fs_switch_in(self, channels_us):
         """True when the failsafe switch (fs_switch_ch, 0 = none) is in range in this raw frame."""
