@@ -2,8 +2,9 @@
 
 `main()` builds the Rp2Board (pins.py), loads the stored parameters (core/storage.py: the
 two-slot image in the board's flash file), starts every device and prints one status line,
-builds the Flight, attaches the configuration links (core/links.py: CLI + MSP on USB, the
-maintenance protocol on the HC-05 UART, a 100 Hz task) and runs the pass at `loop_hz` on the
+builds the Flight, attaches the configuration links (core/links.py: CLI, MSP and the maintenance
+protocol on USB, the maintenance protocol on the HC-05 UART, a task at serial_update_hz; MSP_REBOOT
+resets the board once its reply is out) and runs the pass at `loop_hz` on the
 tick clock; with `rx_core1` the serial receiver is read and parsed on core 1 (core/rxcore.py).
 After each pass it collects garbage only when the time left before the next
 pass is larger than a collection costs and the free heap is getting low — never
@@ -30,6 +31,7 @@ from hoverfly.core.scheduler import HeapWatch
 # is longer than the last collection took (this guess until one has been measured).
 GC_GUESS_US = 1000
 GC_FREE_FRACTION = 2  # and only once half of what the last collection freed is used up (core/scheduler.py HeapWatch)
+REBOOT_DELAY_US = 50000  # MSP_REBOOT: time for the reply to leave (a USB frame is 1 ms, 10 bytes at 115200 baud ~1 ms)
 
 
 class LoopStats:
@@ -101,6 +103,7 @@ def main(board=None, params=None, passes=-1, on_pass=None, overrides=()):
     board.flight = flight
     board.storage = storage
     links = attach(flight, storage)
+    links.config.msp.on_reboot = lambda: reboot(board)  # MSP_REBOOT: a reset once the reply is written
     stats = LoopStats()
     stats.links = links
     try:
@@ -116,6 +119,16 @@ def main(board=None, params=None, passes=-1, on_pass=None, overrides=()):
     board.restore_ctrl_c()  # back at the REPL, Ctrl-C must work again
     print(stats.line())
     return flight, stats
+
+
+def reboot(board):
+    """MSP_REBOOT (refused while armed): motors stopped, the reply given REBOOT_DELAY_US to leave over
+    USB or the UART, then a reset: the board boots with the stored parameters, as after power-up."""
+    import machine
+
+    board.stop_motors()
+    board.wait_until(ticks_add(board.now_us(), REBOOT_DELAY_US))
+    machine.reset()
 
 
 def run(board, flight, stats, passes=-1, on_pass=None):
