@@ -289,3 +289,35 @@ def test_a_full_maintenance_read_mid_flight_on_the_rp2_loop_keeps_it_flying(tmp_
         assert abs(v["body_roll"]) < 10 and abs(v["body_pitch"]) < 10
         assert v["raw_accel_z"] == pytest.approx(-9.8, abs=3.0)
     print(json.dumps({k: r[k] for k in ("passes", "tilt_rms_deg", "alt_m")}))
+
+
+# --- hoverfly maint set: every parameter the seed's commands carry ----------------------------------------
+def test_maint_set_carries_every_seed_parameter_and_lists_them_in_its_help(capsys, tmp_path):
+    from hoverfly.cli_maint import settable
+    from test_host_clients import Sim, assert_one_line_error, cli_value, run
+
+    s = Sim(str(tmp_path / "params.bin"))
+    try:
+        for name, value, shown in (("motor2_min_us", 1150, "1150"), ("motor3_max_us", 1800, "1800"),
+                                   ("motor_enable", 0b1011, "11"), ("ab_roll_alpha", 0.5, "0.5"),
+                                   ("ab_thr_beta", 0.125, "0.125"), ("pid_kt_pitch", 2.5, "2.5"),
+                                   ("pid_ad_yaw", -0.25, "-0.25"), ("thr_hover_us", 1450, "1450"),
+                                   ("imu_type", "bno055", "bno055"), ("p_roll", 48, "48")):
+            code, out, err = run(capsys, "maint", "--port", s.maint_url, "set", name, str(value))
+            assert code == 0, err
+            assert out.startswith("%s = %s" % (name, shown)), out
+            if name == "motor_enable":  # the seed's link carries motors 1-4: bits 4-7 (motors 5-8) stay set
+                shown = str(0xF0 | value)
+            # the CLI sees the same parameter (a reboot parameter's line goes on to say what runs now)
+            assert cli_value(capsys, s, name).split("  (")[0] == "%s = %s" % (name, shown)
+        code, _, err = run(capsys, "maint", "--port", s.maint_url, "set", "motor_enable", "255")
+        assert_one_line_error(code, err, "motors 1-4")
+        code, _, err = run(capsys, "maint", "--port", s.maint_url, "set", "thr_hover_us", "1900")
+        assert_one_line_error(code, err, "descend <= hover <= climb")  # above climb (1650)
+    finally:
+        s.stop()
+    with pytest.raises(SystemExit):
+        run(capsys, "maint", "set", "--help")
+    out = capsys.readouterr().out
+    for name in settable():
+        assert name in out.replace("\n", " ")

@@ -4,10 +4,10 @@ Takes a maintenance port URL (gcs/link.py MaintClient) and gives: `read [FIELD..
 by header-bitmask field name, all fields by default), `fields` (the names), `motors --props-off
 V1,V2,V3,V4` (a props-off motor test in pulse µs: control_motors 1, the motor commands refreshed
 for `--seconds`, then all motors 1000 and control_motors 0, also on Ctrl-C), `set NAME VALUE`
-(a hoverfly parameter through the seed command carrying it: PID gains, iterm_limit, the gyro and
-accelerometer low-pass), `save` (command 7, flash write) and `command NAME|ID [ARG...]` (any of
-the seed's commands 0-25). `--json` prints machine-readable output. The values' units and the
-server's choices are in docs/configuration.md.
+(a hoverfly parameter through the seed command carrying it: SETTABLE, listed in `maint set --help`),
+`save` (command 7, flash write) and `command NAME|ID [ARG...]` (any of the seed's commands 0-25,
+listed with their arguments in `maint command --help`). `--json` prints machine-readable output.
+What each command does in hoverfly, units and capping: docs/maintenance-protocol.md.
 """
 
 import json
@@ -18,6 +18,62 @@ from hoverfly.errors import UserError
 from hoverfly.protocols import maintenance as mp
 
 MOTOR_REFRESH_S = 0.25  # the motor test expires after 1 s without a refresh (core/motortest.py)
+
+_AXES = ("roll", "pitch", "yaw")
+_STICKS = ("thr", "roll", "pitch")  # commands 12-14 (the seed has no yaw stick filter)
+_IMU_NAMES = ("lsm9ds1", "mpu6050", "bno055")  # command 21's ids
+# Parameters `maint set` carries beyond gcs.link.MAINT_SETTABLE: name -> (telemetry field, command of
+# the first row, row length, column). The row is read, the one value changed, the row sent back.
+_ROWS = {"motor_enable": ("motor_params", mp.CMD_SET_MOTOR1_PARAMS, 3, mp.MOTOR_PARAM_ENABLED)}
+for _k in range(4):
+    _ROWS["motor%d_min_us" % (_k + 1)] = ("motor_params", mp.CMD_SET_MOTOR1_PARAMS + _k, 3, mp.MOTOR_PARAM_MIN_US)
+    _ROWS["motor%d_max_us" % (_k + 1)] = ("motor_params", mp.CMD_SET_MOTOR1_PARAMS + _k, 3, mp.MOTOR_PARAM_MAX_US)
+for _k in range(3):
+    _ROWS["ab_%s_alpha" % _STICKS[_k]] = ("js_params", mp.CMD_SET_JS_THROTTLE + _k, 2, 0)
+    _ROWS["ab_%s_beta" % _STICKS[_k]] = ("js_params", mp.CMD_SET_JS_THROTTLE + _k, 2, 1)
+    _ROWS["pid_kt_" + _AXES[_k]] = ("PID_params", mp.CMD_SET_ROLL_PID + _k, 6, mp.PID_KT)
+    _ROWS["pid_ad_" + _AXES[_k]] = ("PID_params", mp.CMD_SET_ROLL_PID + _k, 6, mp.PID_AD)
+for _k, _name in enumerate(("thr_descend_us", "thr_hover_us", "thr_climb_us")):
+    _ROWS[_name] = ("throttle_params", mp.CMD_SET_THROTTLE_PARAMS, 3, _k)
+_ROWS["imu_type"] = ("imu_type", mp.CMD_SET_IMU_TYPE, 1, 0)
+
+
+def settable():
+    """Every parameter `maint set` takes, in the order the help lists them."""
+    from hoverfly.gcs.link import MAINT_SETTABLE
+
+    return tuple(MAINT_SETTABLE) + tuple(n for n in _ROWS if n not in MAINT_SETTABLE)
+
+
+def _set_row(client, name, value):
+    """Set `name` through its seed command (read the row, change one value, send it); the value read back."""
+    field, cmd, width, col = _ROWS[name]
+    if name == "imu_type":
+        client.command(cmd, (_IMU_NAMES.index(value),))
+        return value  # a reboot parameter: imu_type telemetry shows the IMU running until the next boot
+    current = client.read([field])[field]
+    if name == "motor_enable":
+        for k in range(4):
+            row = list(current[3 * k:3 * k + 3])
+            on = 1 if value & (1 << k) else 0
+            if row[0] != on:
+                row[0] = on
+                client.command(cmd + k, tuple(row))
+        got = client.read([field])[field]
+        return sum(1 << k for k in range(4) if got[3 * k])
+    if field == "PID_params":
+        first = (cmd - mp.CMD_SET_ROLL_PID) * width
+    elif field == "js_params":
+        first = (cmd - mp.CMD_SET_JS_THROTTLE) * width
+    elif field == "motor_params":
+        first = (cmd - mp.CMD_SET_MOTOR1_PARAMS) * width
+    else:
+        first = 0
+    row = list(current[first:first + width])
+    row[col] = value
+    client.command(cmd, tuple(row))
+    got = client.read([field])[field][first + col]
+    return int(got) if isinstance(value, int) else got
 
 
 def _client(args):
@@ -143,20 +199,26 @@ def run_motors(args):
 
 
 def run_set(args):
-    from hoverfly.gcs.link import MAINT_SETTABLE, Refused
+    from hoverfly.gcs.link import MAINT_SETTABLE, LinkError, Refused
 
     name = args.name.strip().lower()
-    if name not in MAINT_SETTABLE:
+    if name not in settable():
         raise UserError("'%s' cannot be set over the maintenance protocol; it carries: %s"
-                        % (name, ", ".join(MAINT_SETTABLE)))
+                        % (name, ", ".join(settable())))
     value, err = check_value(name, args.value)
     if err is not None:
         raise UserError(err)
+    if name == "imu_type" and value not in _IMU_NAMES:
+        raise UserError("the maintenance protocol carries imu_type %s only" % ", ".join(_IMU_NAMES))
+    if name == "motor_enable" and value > 15:
+        raise UserError("the maintenance protocol carries motor_enable for motors 1-4 only (0..15)")
     port, client = _client(args)
     try:
         try:
-            got = client.set_param(name, value)
+            got = client.set_param(name, value) if name in MAINT_SETTABLE else _set_row(client, name, value)
         except Refused as exc:
+            raise UserError(str(exc)) from None
+        except LinkError as exc:
             raise UserError(str(exc)) from None
     finally:
         port.close()
@@ -245,14 +307,18 @@ def register(sub):
                    help="props removed: pulse widths in us (1000..2000) for motors 1-4, or one for all")
     m.add_argument("--seconds", type=float, default=2.0, metavar="S", help="how long to run them (2)")
     m.set_defaults(func=run_motors)
-    s = ps.add_parser("set", parents=[common], help="a parameter through the seed commands (PID, filters)")
-    s.add_argument("name", metavar="NAME")
+    s = ps.add_parser("set", parents=[common], help="a parameter through the seed command that carries it",
+                      epilog="NAME is one of: " + ", ".join(settable()))
+    s.add_argument("name", metavar="NAME", help="a hoverfly parameter the seed's commands carry (listed below)")
     s.add_argument("value", metavar="VALUE")
     s.set_defaults(func=run_set)
     sv = ps.add_parser("save", parents=[common], help="flash write (command 7)")
     sv.set_defaults(func=run_save)
-    c = ps.add_parser("command", parents=[common],
-                      help="any seed command 0-25 by name or id, with its arguments")
+    c = ps.add_parser("command", parents=[common], formatter_class=argparse.RawDescriptionHelpFormatter,
+                      help="any seed command 0-25 by name or id, with its arguments",
+                      epilog="commands (id name arguments):\n" + "\n".join(
+                          ("  %2d %-20s %s" % (k, mp.COMMANDS[k][0], " ".join(mp.COMMANDS[k][2]))).rstrip()
+                          for k in range(mp.MAX_CMD_ID + 1)))
     c.add_argument("name", metavar="NAME|ID")
     c.add_argument("args", nargs="*", metavar="ARG")
     c.add_argument("--read", nargs="+", metavar="FIELD", default=None, help="header fields to read with it")
