@@ -344,3 +344,52 @@ def test_a_field_that_raises_is_sent_as_zero_and_counted(srv):
         del type(board).imu_type
     assert got == 0 and v["body_roll"] == 0.0 and v["imu_type"] == 255
     assert server.field_errors >= 3 and "body_" in server.last_field_error
+
+
+# ----------------------------------------------------------------- the boards' I2C (commands 22-23)
+def test_rp2_board_i2c_reads_and_writes_the_imu_bus_through_machine_i2c():
+    # the rp2 fakes' machine.I2C serves the MPU-6050 register model, as the IMU's bus on the board
+    sys.path.insert(0, str(Path(__file__).parent / "rp2fakes"))
+    import machine
+
+    from hoverfly.sim.regmodels import MPU6050Model
+    from test_rp2_board import _board
+
+    machine.reset()
+    try:
+        chip = MPU6050Model()
+        machine.attach_i2c(0, chip)
+        b = _board()
+        b.setup()
+        assert b.i2c_read(0, 0x68, 0x75) == 0x68  # WHO_AM_I
+        assert b.i2c_write(0, 0x68, 0x19, 0x07) is None and b.i2c_read(0, 0x68, 0x19) == 0x07
+        assert (0x19, 0x07) in chip.writes
+        assert "no answer" in b.i2c_read(0, 0x29, 0x00)  # nobody at 0x29: ENODEV, a reason
+        assert "no pins" in b.i2c_read(1, 0x68, 0x75)
+        machine.i2c_fail(0, 1)
+        assert "not acknowledged" in b.i2c_write(0, 0x68, 0x19, 0x01)
+        assert b.i2c_errors == 2 and chip.regs[0x19] == 0x07
+        # through the server: the byte read is the i2c_read field
+        flight, _ = make_flight()
+        flight.board = b
+        server = MaintServer(flight, None)
+        got, v = _reply(server, ["i2c_read"], 22, (0, 0x68, 0x75))
+        assert got == 22 and v["i2c_read"] == 0x68
+        got, _ = _reply(server, ["i2c_read"], 22, (0, 0x29, 0x75))
+        assert got == ERROR_CMD and "no answer" in server.last_error
+    finally:
+        machine.reset()
+
+
+def test_sim_board_i2c_serves_the_imu_register_model_with_the_live_sample():
+    from hoverfly.sim.board import SimBoard
+
+    b = SimBoard(4)
+    assert b.i2c_read(0, 0x68, 0x75) == 0x68
+    b.accel[0], b.accel[1], b.accel[2] = 0.0, 0.0, -9.80665  # level, at rest: FRD z up is -1 g
+    hi, lo = b.i2c_read(0, 0x68, 0x3F), b.i2c_read(0, 0x68, 0x40)  # ACCEL_ZOUT at +-2 g: 16384 LSB/g
+    assert abs(((hi << 8) | lo) - 16384) <= 1
+    assert b.i2c_write(0, 0x68, 0x1C, 0x18) is None  # +-16 g
+    hi, lo = b.i2c_read(0, 0x68, 0x3F), b.i2c_read(0, 0x68, 0x40)
+    assert abs(((hi << 8) | lo) - 2048) <= 1
+    assert "no device" in b.i2c_read(0, 0x28, 0x00) and "no device" in b.i2c_write(1, 0x68, 0x19, 1)
