@@ -458,7 +458,7 @@ class MaintenanceParser(FrameScanner):
         if replies:
             max_frame = 1 + HEADER_LEN + MAX_REPLY_PAYLOAD + 1
         else:
-            max_frame = 1 + HEADER_LEN + max(ARG_SIZE) + RC_TAG_LEN + 1  # widest: 5 floats, 39 bytes
+            max_frame = 1 + HEADER_LEN + max(ARG_SIZE) + RC_TAG_LEN + 1  # widest: 6 floats (PID), 43 bytes
         FrameScanner.__init__(self, SYNC, max_frame, queue_depth)
         self.replies = replies
         self.layout = layout
