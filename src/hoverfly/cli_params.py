@@ -11,8 +11,8 @@ sent, and a refusal from the controller (`###ERROR: ...###`) becomes a one-line 
 import json
 import sys
 
-from hoverfly.core.cliserver import format_value, resolve
-from hoverfly.core.params import PARAMS, REBOOT, check_value, is_choice, row
+from hoverfly.core.cliserver import format_value
+from hoverfly.core.params import PARAMS, REBOOT, check, check_value, is_choice, row
 from hoverfly.errors import UserError
 
 
@@ -116,19 +116,10 @@ def parse_assignment(text, where="", value_text=None):
         text, value_text = text.split("=", 1)
     given = text.strip().lower()
     value_text = value_text.strip()
-    name, factor = resolve(given)
-    if name is None:
-        raise UserError("%sunknown parameter '%s' (hoverfly params list shows them)" % (where, given))
-    value = value_text
-    if factor != 1:
-        try:
-            value = float(value_text) * factor
-        except ValueError:
-            raise UserError("%s%s must be a number" % (where, given)) from None
-        if isinstance(row(name)[1], int):
-            value = int(value + 0.5) if value >= 0 else int(value - 0.5)
-    v, err = check_value(name, value)
+    name, v, err = check(given, value_text)  # the table's one check: names, aliases, finite, range
     if err is not None:
+        if name is None and err.startswith("unknown parameter") and "did you mean" not in err:
+            err += " (hoverfly params list shows them)"
         raise UserError(where + err)
     return name, v, value_text
 

@@ -16,8 +16,10 @@ BIT_BATTERY = const(3)
 BIT_STORAGE = const(4)
 BIT_CALIBRATION = const(5)
 BIT_BOARD = const(6)
+BIT_PARAMS = const(7)
+BIT_TASKS = const(8)
 
-CHECK_NAMES = ("imu", "receiver", "loop", "battery", "storage", "calibration", "board")
+CHECK_NAMES = ("imu", "receiver", "loop", "battery", "storage", "calibration", "board", "params", "tasks")
 CHECK_SENTENCES = (
     "IMU: no new samples, or frozen or saturated values",
     "receiver: no valid frames",
@@ -26,6 +28,8 @@ CHECK_SENTENCES = (
     "storage: the stored parameters did not load (defaults in use)",
     "calibration: gyro not calibrated",
     "board: a device failed (IMU, receiver wiring or motor outputs; see the board status line)",
+    "params: stored values were skipped at boot (out of range, not finite or unfit; see status)",
+    "tasks: a slow task, link, telemetry encoder or the log raised and was stopped there (see status)",
 )
 
 # Failing checks that have no arming reason of their own raise BIT_FAILED.
@@ -37,6 +41,8 @@ class BuiltInTest:
         self.flags = 0
         self.storage_ok = True  # set by the configuration links (storage load result)
         self.board_faults = 0  # set by the board's health check (rp2: board.faults)
+        self.params_ok = True  # set at boot (Flight.start): False if the storage load skipped a stored value
+        self.tasks_ok = True  # set by the flight's 100 Hz task: False once a guarded call raised (Flight.loop_errors)
         self.runs = 0
 
     def update(self, imu_ok, rx_ok, loop_ok, battery_ok, calibrated):
@@ -55,6 +61,10 @@ class BuiltInTest:
             f |= 1 << BIT_CALIBRATION
         if self.board_faults:
             f |= 1 << BIT_BOARD
+        if not self.params_ok:
+            f |= 1 << BIT_PARAMS
+        if not self.tasks_ok:
+            f |= 1 << BIT_TASKS
         self.flags = f
         self.runs += 1
         return f

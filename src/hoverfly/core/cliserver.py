@@ -12,29 +12,11 @@ flight pass.
 from hoverfly import __version__
 from hoverfly.core.arming import reason_names
 from hoverfly.core.mspserver import CONFIG_CLI, reason_words
-from hoverfly.core.params import INDEX, PARAMS, REBOOT, check_value, is_choice, row
+from hoverfly.core.params import ALIASES, PARAMS, REBOOT, check, is_choice, row
+from hoverfly.core.params import resolve as _resolve
 from hoverfly.core.rc import map_text, map_value
 from hoverfly.core.scheduler import PS_CYCLE, PS_CYCLE_MAX, PS_JITTER_MAX
 from hoverfly.core.storage import STATUS_NAMES
-
-# Betaflight name -> (hoverfly name, factor: hoverfly value = Betaflight value * factor)
-ALIASES = {
-    "gyro_lpf1_static_hz": ("gyro_lpf1_hz", 1),
-    "gyro_lpf2_static_hz": ("gyro_lpf2_hz", 1),
-    "dterm_lpf1_static_hz": ("dterm_lpf1_hz", 1),
-    "align_board_roll": ("board_roll_deg", 1),
-    "align_board_pitch": ("board_pitch_deg", 1),
-    "align_board_yaw": ("board_yaw_deg", 1),
-    "horizon_level_strength": ("horizon_level", 1),
-    "airmode_start_throttle_percent": ("airmode_thr_pct", 1),
-    "yaw_motors_reversed": ("yaw_motors_rev", 1),
-    "iterm_relax_cutoff": ("iterm_relax_hz", 1),
-    "failsafe_throttle": ("fs_throttle", 1),
-    "dshot_idle_value": ("motor_idle_pct", 0.01),  # Betaflight: percent x 100
-    "failsafe_delay": ("fs_delay_ms", 100),  # Betaflight: tenths of a second
-    "gyro_calib_duration": ("gyro_cal_ms", 10),  # Betaflight: hundredths of a second
-    "serial_update_rate_hz": ("serial_update_hz", 1),  # seed 004: `set serial_update_rate_hz = 2000`
-}
 
 HELP = (
     "help                      this list",
@@ -62,13 +44,9 @@ def format_value(v):
 
 
 def resolve(name):
-    """(hoverfly name, factor) for a hoverfly or Betaflight name, or (None, 1)."""
-    if name in INDEX:
-        return name, 1
-    a = ALIASES.get(name)
-    if a is not None:
-        return a
-    return None, 1
+    """(hoverfly name, factor) for a hoverfly or Betaflight name, or (None, 1): params.resolve, the
+    one name look-up every surface shares."""
+    return _resolve(name)
 
 
 class CliServer:
@@ -193,7 +171,7 @@ class CliServer:
         out = []
         for r in PARAMS:
             if part in r[0]:
-                out.append("%s = %s" % (r[0], format_value(self.flight.params.get(r[0]))))
+                out.append("%s = %s%s" % (r[0], format_value(self.flight.params.stored(r[0])), self._waiting(r[0])))
         for bf, (name, _) in ALIASES.items():
             if part and part in bf:
                 out.append("%s = %s   (hoverfly: %s)" % (bf, format_value(self._bf_value(bf)), name))
@@ -201,9 +179,16 @@ class CliServer:
             out.append("###ERROR: no parameter matches '%s'###" % arg)
         return out
 
+    def _waiting(self, name):
+        """The note for a REBOOT row written since boot: stored, not yet what the craft runs."""
+        p = self.flight.params
+        if name in p.pending:
+            return "  (applies after reboot; running %s)" % format_value(p.get(name))
+        return ""
+
     def _bf_value(self, bf):
         name, factor = ALIASES[bf]
-        v = self.flight.params.get(name)
+        v = self.flight.params.stored(name)
         if factor == 1:
             return v
         v = v / factor
@@ -211,8 +196,8 @@ class CliServer:
 
     def _describe(self, name):
         r = row(name)
-        v = self.flight.params.get(name)
-        out = ["%s = %s" % (name, format_value(v))]
+        v = self.flight.params.stored(name)
+        out = ["%s = %s%s" % (name, format_value(v), self._waiting(name))]
         if is_choice(r):
             out.append("Allowed values: %s" % ", ".join(r[4]))
         else:
@@ -233,21 +218,13 @@ class CliServer:
             return ["###ERROR: use set name = value###"]
         given = arg[:eq].strip().lower()
         text = arg[eq + 1:].strip()
-        name, factor = resolve(given)
-        if name is None:
-            return ["###ERROR: unknown parameter '%s'###" % given]
-        value = text
-        if factor != 1:
-            try:
-                value = float(text) * factor
-            except ValueError:
-                return ["###ERROR: %s must be a number###" % given]
-            if isinstance(row(name)[1], int):
-                value = int(value + 0.5) if value >= 0 else int(value - 0.5)
-        v, err = check_value(name, value)
+        # params.check: the one check (names, aliases and their units, finite, range, choices)
+        name, v, err = check(given, text)
         if err is not None:
             return ["###ERROR: %s###" % err]
-        self.flight.params.set(name, v)
+        err = self.flight.params.set(name, v)
+        if err is not None:
+            return ["###ERROR: %s###" % err]
         note = "  (applies after a reboot)" if row(name)[5] == REBOOT else ""
         return ["%s set to %s%s" % (name, format_value(v), note)]
 
@@ -272,12 +249,15 @@ class CliServer:
         board = getattr(self.flight.board, "name", "board")
         out = ["# %s" % ("diff all" if only_changed else "dump"), "", "# version",
                "# hoverfly %s / %s" % (__version__, board), "", "batch start", "", "# master"]
+        # The values as stored (a reboot row written since boot: its new value, with a note)
         if only_changed:
             for name, v in p.diff():
                 out.append("set %s = %s" % (name, format_value(v)))
         else:
             for r in PARAMS:
-                out.append("set %s = %s" % (r[0], format_value(p.get(r[0]))))
+                out.append("set %s = %s" % (r[0], format_value(p.stored(r[0]))))
+        for name in sorted(p.pending):
+            out.append("# %s applies after reboot (running %s)" % (name, format_value(p.get(name))))
         out.append("")
         out.append("batch end")
         return out
@@ -342,6 +322,9 @@ class CliServer:
         if st is not None:
             out.append("Storage: %s, sequence %d, slot %d%s" % (STATUS_NAMES[st.status], st.seq, st.slot,
                                                                   ", FAILED" if st.failed else ""))
+            if getattr(st, "skipped", 0):
+                out.append("Parameters: %d stored value(s) skipped at boot: %s"
+                           % (st.skipped, "; ".join(getattr(st, "skip_reasons", ())[:4])))
         line = getattr(f.board, "status_line", None)
         if line is not None:
             out.append("Board: %s" % line())

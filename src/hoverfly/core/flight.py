@@ -231,6 +231,7 @@ class Flight:
 
     def start(self, now_us):
         """Boot: configure, start the clocks and the gyro calibration."""
+        self.bit.params_ok = self.params.latch_boot()  # REBOOT rows written from here wait for a reboot
         self.configure()
         self._last_us = now_us
         self.imu_us = now_us

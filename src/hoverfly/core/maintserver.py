@@ -327,7 +327,7 @@ class MaintServer:
             if v is None or v == "imu":
                 v = getattr(board, "imu_type", None)
             if v is None:
-                v = self.flight.params.get("imu_type")
+                v = self.flight.params.stored("imu_type")  # a reboot row: what is stored reads back
         except Exception:
             return _IMU_OTHER
         return imu_id(v)

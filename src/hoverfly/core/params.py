@@ -222,47 +222,219 @@ def is_choice(r):
     return isinstance(r[_DEFAULT], str)
 
 
-def check_value(name, value):
-    """(value, None) if `value` may be stored under `name` (converted), else (None, reason)."""
-    r = row(name)
-    if r is None:
-        return None, "unknown parameter '%s'" % name
+_APPLIES = 5
+
+# Other names every surface accepts for a parameter (Betaflight's, where hoverfly's differ), with
+# the unit conversion: table value = given value * factor. resolve() is the one place names are
+# looked up, so the CLI, `--set`, MSP, the maintenance protocol, storage and the scenario and
+# airframe files all take the same names.
+ALIASES = {
+    "gyro_lpf1_static_hz": ("gyro_lpf1_hz", 1),
+    "gyro_lpf2_static_hz": ("gyro_lpf2_hz", 1),
+    "dterm_lpf1_static_hz": ("dterm_lpf1_hz", 1),
+    "align_board_roll": ("board_roll_deg", 1),
+    "align_board_pitch": ("board_pitch_deg", 1),
+    "align_board_yaw": ("board_yaw_deg", 1),
+    "horizon_level_strength": ("horizon_level", 1),
+    "airmode_start_throttle_percent": ("airmode_thr_pct", 1),
+    "yaw_motors_reversed": ("yaw_motors_rev", 1),
+    "iterm_relax_cutoff": ("iterm_relax_hz", 1),
+    "failsafe_throttle": ("fs_throttle", 1),
+    "failsafe_procedure": ("fs_procedure", 1),
+    "failsafe_switch_mode": ("fs_switch_mode", 1),
+    "motor_pwm_protocol": ("motor_protocol", 1),
+    "serialrx_provider": ("rx_provider", 1),
+    "dshot_idle_value": ("motor_idle_pct", 0.01),  # Betaflight: percent x 100
+    "failsafe_delay": ("fs_delay_ms", 100),  # Betaflight: tenths of a second
+    "gyro_calib_duration": ("gyro_cal_ms", 10),  # Betaflight: hundredths of a second
+    "serial_update_rate_hz": ("serial_update_hz", 1),  # seed 004: `set serial_update_rate_hz = 2000`
+}
+
+_HUGE = 1000000000000000  # 1e15: a whole number past this is shown as "huge" (CPython cannot str() 10**5000)
+
+
+def resolve(name):
+    """(table name, factor) for a table name or an alias in any case, or (None, 1). Never raises."""
+    if not isinstance(name, str):
+        return None, 1
+    if name in INDEX:
+        return name, 1
+    key = name.strip().lower()
+    if key in INDEX:
+        return key, 1
+    a = ALIASES.get(key)
+    if a is not None and a[0] in INDEX:
+        return a
+    return None, 1
+
+
+def show(value):
+    """`value` for a one-line reason: short, printable, never raises."""
+    try:
+        if value is None:
+            return "nothing"
+        if isinstance(value, bool):
+            return "true" if value else "false"
+        if isinstance(value, int):
+            if value > _HUGE or value < -_HUGE:
+                return "a huge number" if value > 0 else "a huge negative number"
+            return "%d" % value
+        if isinstance(value, float):
+            return "%.6g" % value
+        if not isinstance(value, str):
+            return "a %s" % type(value).__name__
+        out = ""
+        for ch in value[:24]:
+            out += ch if " " <= ch <= "~" else "?"
+        return out + ("..." if len(value) > 24 else "")
+    except Exception:
+        return "that value"
+
+
+def _distance(a, b, limit):
+    """Edit distance of a and b, or limit + 1 once it is certain to pass limit (error path only)."""
+    prev = list(range(len(b) + 1))
+    for i in range(1, len(a) + 1):
+        cur = [i] + [0] * len(b)
+        best = i
+        for j in range(1, len(b) + 1):
+            d = prev[j - 1] + (0 if a[i - 1] == b[j - 1] else 1)
+            if prev[j] + 1 < d:
+                d = prev[j] + 1
+            if cur[j - 1] + 1 < d:
+                d = cur[j - 1] + 1
+            cur[j] = d
+            if d < best:
+                best = d
+        if best > limit:
+            return limit + 1
+        prev = cur
+    return prev[len(b)]
+
+
+def nearest(word, candidates=None):
+    """The candidate (table names and aliases by default) nearest to `word` by edit distance, if it
+    is within 2 edits or a third of its length; else None. Ties go to the alphabetically first, so the
+    answer does not hang on dict order. Only on the error path: a small loop over the table."""
+    if not isinstance(word, str):
+        return None
+    w = word.strip().lower()
+    if not w or len(w) > 40:
+        return None
+    limit = 2 if len(w) < 9 else len(w) // 3
+    if candidates is None:
+        candidates = list(INDEX) + list(ALIASES)
+    found = None
+    found_d = limit + 1
+    for c in candidates:
+        if len(c) - len(w) > limit or len(w) - len(c) > limit:
+            continue
+        d = _distance(w, c, limit)
+        if d < found_d or (d == found_d and found is not None and c < found):
+            found = c
+            found_d = d
+    return found
+
+
+def unknown_reason(name):
+    """The one-line reason for a name that is no parameter, with the nearest one if there is one."""
+    if not isinstance(name, str):
+        return "a parameter name is text, not %s" % show(name)
+    guess = nearest(name)
+    if guess is None:
+        return "unknown parameter '%s'" % show(name)
+    return "unknown parameter '%s' (did you mean %s?)" % (show(name), guess)
+
+
+def _number(value):
+    """A finite int or float from a number or its text, or None (bools count as 0/1)."""
+    if isinstance(value, bool):
+        return int(value)
+    if isinstance(value, str):
+        text = value.strip()
+        try:
+            return int(text)
+        except ValueError:
+            pass
+        try:
+            value = float(text)
+        except ValueError:
+            return None
+    if isinstance(value, int):
+        return value
+    if isinstance(value, float):
+        # inf - inf and nan - nan are nan: the one finite test that is the same on every port
+        return value if value - value == 0.0 else None
+    return None
+
+
+def _check_row(r, name, value):
     if is_choice(r):
         choices = r[_UNIT]
         if isinstance(value, str):
+            low = value.strip().lower()
             for c in choices:
-                if c.lower() == value.lower():
+                if c.lower() == low:
                     return c, None
         elif isinstance(value, int) and not isinstance(value, bool) and 0 <= value < len(choices):
             return choices[value], None
-        return None, "%s must be one of %s" % (name, ", ".join(choices))
+        return None, "%s must be one of %s, not %s" % (name, ", ".join(choices), show(value))
     lo = r[_MIN]
     hi = r[_MAX]
-    if isinstance(value, str):
-        try:
-            value = float(value) if isinstance(r[_DEFAULT], float) else int(value)
-        except ValueError:
-            try:
-                value = float(value)
-            except ValueError:
-                return None, "%s must be a number from %s to %s" % (name, lo, hi)
-    if isinstance(value, bool):
-        value = int(value)
-    if isinstance(r[_DEFAULT], int):
-        if isinstance(value, float):
-            if value != int(value):
-                return None, "%s must be a whole number from %d to %d" % (name, lo, hi)
-            value = int(value)
+    whole = isinstance(r[_DEFAULT], int)
+    v = _number(value)
+    if v is None:
+        kind = "whole number" if whole else "number"
+        return None, "%s must be a finite %s from %s to %s, not %s" % (name, kind, lo, hi, show(value))
+    if v < lo or v > hi:
+        return None, "%s = %s is out of range %s .. %s" % (name, show(v), lo, hi)
+    if whole:
+        if isinstance(v, float):
+            if v != int(v):
+                return None, "%s must be a whole number from %d to %d, not %s" % (name, lo, hi, show(v))
+            v = int(v)
     else:
-        value = float(value)
-    if value != value or value < lo or value > hi:
-        return None, "%s = %s is out of range %s .. %s" % (name, value, lo, hi)
+        v = float(v)
     extra = _EXTRA_CHECKS.get(name)
     if extra is not None:
-        err = extra(value)
+        err = extra(v)
         if err is not None:
             return None, err
-    return value, None
+    return v, None
+
+
+def check(name, value):
+    """(table name, value as stored, None) if `value` may be stored under `name` (a table name or
+    an alias, converted by the alias's factor), else (None, None, one-line reason). The one check
+    every surface goes through. Never raises, whatever `name` and `value` are."""
+    try:
+        key, factor = resolve(name)
+        if key is None:
+            return None, None, unknown_reason(name)
+        r = PARAMS[INDEX[key]]
+        if factor != 1:
+            v = _number(value)
+            if v is None:
+                return None, None, "%s must be a finite number, not %s" % (show(name), show(value))
+            v = v * factor
+            if isinstance(r[_DEFAULT], int) and v - v == 0.0 and -_HUGE < v < _HUGE:
+                v = int(v + 0.5) if v >= 0 else int(v - 0.5)
+            value = v
+        v, err = _check_row(r, key, value)
+        if err is not None:
+            if factor != 1:
+                err = "%s sets %s x %g: %s" % (show(name), key, factor, err)
+            return None, None, err
+        return key, v, None
+    except Exception:  # SAFETY: no value may raise into a server, the boot or a slow task
+        return None, None, "%s: value %s not understood" % (show(name), show(value))
+
+
+def check_value(name, value):
+    """(value, None) if `value` may be stored under `name` (converted for the table name it
+    resolves to: see check()), else (None, one-line reason)."""
+    _, v, err = check(name, value)
+    return v, err
 
 
 def rc_map_error(value):
@@ -282,10 +454,18 @@ _EXTRA_CHECKS = {"rc_map": rc_map_error}
 
 
 class Params:
-    """The live values, keyed by name; starts from the table's defaults."""
+    """The live values, keyed by name; starts from the table's defaults.
+
+    `values` is what the stages read (get). Before boot every accepted write lands there. From
+    latch_boot() (Flight.start) on, a write to a REBOOT row lands in `pending` instead: it is stored,
+    saved and shown, and applies at the next boot; the running stages keep what they booted with
+    (a frame, loop rate or protocol changed under a running loop is a crash, not a setting)."""
 
     def __init__(self):
         self.values = {}
+        self.pending = {}  # REBOOT rows written after boot: name -> value for the next boot
+        self.booted = False
+        self.load_skipped = []  # names Storage.load skipped at boot (the built-in test's params check)
         self.changed = 0  # bumped on every accepted write; stages re-read on change
         # Called with no arguments after every accepted write (the flight log: it logs the change
         # after the pass it came in, without looking at `changed` every pass).
@@ -297,20 +477,51 @@ class Params:
         if self.on_change is not None:
             self.on_change()
 
+    def _store(self, name, v):
+        if self.booted and PARAMS[INDEX[name]][_APPLIES] == REBOOT:
+            if v == self.values[name]:
+                if name in self.pending:
+                    del self.pending[name]
+            else:
+                self.pending[name] = v
+            return
+        self.values[name] = v
+
+    def latch_boot(self):
+        """The flight has booted: REBOOT rows written from now on wait for the next boot. Returns
+        True if every stored value loaded (the built-in test's params check)."""
+        self.booted = True
+        return not self.load_skipped
+
     def reset(self):
         for r in PARAMS:
-            self.values[r[_NAME]] = r[_DEFAULT]
+            self._store(r[_NAME], r[_DEFAULT])
         self._bump()
 
     def get(self, name):
+        """The value the stages run with (a REBOOT row: the one it booted with)."""
         return self.values[name]
 
+    def stored(self, name):
+        """The value as stored and saved: a REBOOT row's pending value, else the running one."""
+        if name in self.pending:
+            return self.pending[name]
+        return self.values[name]
+
+    def saved_values(self):
+        """name -> value as the next boot should see them (what Storage.save writes)."""
+        out = dict(self.values)
+        for name in self.pending:
+            out[name] = self.pending[name]
+        return out
+
     def set(self, name, value):
-        """Store `value`; returns None on success or the one-line reason it was refused."""
-        value, err = check_value(name, value)
+        """Store `value` under `name` (a table name or an alias); returns None on success or the
+        one-line reason it was refused (nothing changed)."""
+        key, value, err = check(name, value)
         if err is not None:
             return err
-        self.values[name] = value
+        self._store(key, value)
         self._bump()
         return None
 
@@ -318,20 +529,20 @@ class Params:
         """Set several (name, value) pairs; all or nothing. Returns None or the first reason."""
         checked = []
         for name, value in pairs:
-            v, err = check_value(name, value)
+            key, v, err = check(name, value)
             if err is not None:
                 return err
-            checked.append((name, v))
-        for name, v in checked:
-            self.values[name] = v
+            checked.append((key, v))
+        for key, v in checked:
+            self._store(key, v)
         self._bump()
         return None
 
     def diff(self):
-        """(name, value) for every value that differs from its default, in table order."""
+        """(name, value as stored) for every value that differs from its default, in table order."""
         out = []
         for r in PARAMS:
-            v = self.values[r[_NAME]]
+            v = self.stored(r[_NAME])
             if v != r[_DEFAULT]:
                 out.append((r[_NAME], v))
         return out

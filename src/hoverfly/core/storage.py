@@ -17,8 +17,11 @@ Record (little-endian):
     | payload | u32 CRC-32 (IEEE) over everything before it
 Payload entries, keyed by name so rows can be added, reordered or retired:
     u8 name length | name | u8 type | value     type 'i': i32, 'f': f64, 's': u8 length + text
-Loading takes each known name through params.check_value: an unknown name (a retired row) or a
-value outside today's range is skipped and counted, and that parameter keeps its default. Names
+Loading takes each entry through params.check (the one check every surface uses): an unknown
+name (a retired row), a value outside today's range, a non-finite number, or a value this board
+cannot run (a mixer_type for another motor count) is skipped, named in `skipped_names` with its
+reason in `skip_reasons`, and that parameter keeps the value it had (its default, or the craft's);
+the rest of the record loads, so the boot always comes up. Names
 in RENAMED load under their new name, rows in RETIRED into the rows that replaced them; a record of an
 older format goes through MIGRATIONS.
 """
@@ -26,7 +29,8 @@ older format goes through MIGRATIONS.
 from struct import pack, pack_into, unpack_from
 
 from hoverfly.compat import const
-from hoverfly.core.params import PARAMS, check_value
+from hoverfly.core.mixer import MIXER_TABLES
+from hoverfly.core.params import PARAMS, check
 
 MAGIC = b"HVFP"
 FORMAT = const(1)  # newest record layout this firmware writes
@@ -186,6 +190,8 @@ class Storage:
         self.status = EMPTY
         self.failed = False  # built-in test: stored parameters were lost
         self.skipped = 0  # names or values of the loaded record that were not applied
+        self.skipped_names = []  # ... their names, and why (one line each), for status and the log
+        self.skip_reasons = []
         self.saves = 0
         self.last_error = None
 
@@ -197,6 +203,9 @@ class Storage:
         except OSError:
             image = b"\x00"  # unreadable counts as lost
         self.skipped = 0
+        self.skipped_names = []
+        self.skip_reasons = []
+        params.load_skipped = self.skipped_names
         if not image:
             self.image = b""
             self.slot = -1
@@ -235,17 +244,40 @@ class Storage:
         pairs = []
         for name, value in _unretire(entries):
             name = RENAMED.get(name, name)
-            v, err = check_value(name, value)
+            key, v, err = check(name, value)
+            if err is None:
+                err = self._unfit(key, v)
             if err is not None:
                 self.skipped += 1
+                self.skipped_names.append(name)
+                self.skip_reasons.append(err)
                 continue
-            pairs.append((name, v))
+            pairs.append((key, v))
         params.update(pairs)
+
+    def _unfit(self, name, value):
+        # A value the table allows but this board cannot boot with: a frame for another motor count
+        # (the outputs, ESCs and, in the simulator, the airframe are built for the board's count).
+        if name == "mixer_type":
+            n = getattr(self.board, "motor_count", 0)
+            if n and len(MIXER_TABLES[value]) != n:
+                return "mixer_type = %s drives %d motors, this board has %d" % (value, len(MIXER_TABLES[value]), n)
+        return None
+
+    def summary(self):
+        """The load in one line: status, and the stored values skipped with why."""
+        text = STATUS_NAMES[self.status]
+        if self.skipped:
+            text += ", %d stored value%s skipped: %s" % (self.skipped, "" if self.skipped == 1 else "s",
+                                                          "; ".join(self.skip_reasons[:4]))
+            if self.skipped > 4:
+                text += "; ..."
+        return text
 
     def save(self, params):
         """Write params into the other slot. None on success, else the reason (nothing changed)."""
         seq = (self.seq + 1) & 0xFFFFFFFF
-        record = encode_record(params.values, seq)
+        record = encode_record(params.saved_values(), seq)
         if len(record) > SLOT_BYTES:
             self.last_error = "parameters do not fit the %d-byte storage slot" % SLOT_BYTES
             return self.last_error

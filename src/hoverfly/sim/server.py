@@ -18,7 +18,7 @@ import socket
 
 from hoverfly.core.board import SERIAL_CONFIG, SERIAL_MAINT
 from hoverfly.core.links import attach
-from hoverfly.core.storage import STATUS_NAMES, Storage
+from hoverfly.core.storage import Storage
 from hoverfly.errors import UserError
 
 HOST = "127.0.0.1"
@@ -210,7 +210,7 @@ class SimServer:
         storage = self.run.board.storage_path
         return ("hoverfly sim: %s, CLI+MSP on %s:%d, maintenance on %s:%d, storage %s"
                 % (self.run.airframe["name"], msp_addr[0], msp_addr[1], maint_addr[0], maint_addr[1],
-                   "%s (%s)" % (storage, STATUS_NAMES[self.storage_status]) if storage else "none (not saved)"))
+                   "%s (%s)" % (storage, self.storage.summary()) if storage else "none (not saved)"))
 
     def _on_step(self, run):
         if self._chained is not None:
