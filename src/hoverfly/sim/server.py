@@ -166,11 +166,11 @@ class SimServer:
     """A real-time SimRun with storage and the TCP ports wired to its board."""
 
     def __init__(self, airframe="5inch", msp_port=DEFAULT_MSP_PORT, maint_port=DEFAULT_MAINT_PORT,
-                 storage_path=None, duration_s=None, seed=1, mode="angle", log_path=None):
+                 storage_path=None, duration_s=None, seed=1, mode="angle", log_path=None, overrides=()):
         if duration_s is not None and not (0 < duration_s <= _FOREVER_S):
             raise UserError("--duration must be more than 0 s")
         self._boot_args = (airframe, seed, mode, log_path, storage_path,
-                           duration_s if duration_s is not None else _FOREVER_S)
+                           duration_s if duration_s is not None else _FOREVER_S, tuple(overrides))
         self.ports = None
         self._boot()
         self.ports = TcpPorts({SERIAL_CONFIG: msp_port, SERIAL_MAINT: maint_port})
@@ -184,7 +184,7 @@ class SimServer:
         """Build the run, load the stored parameters and attach the links: at start and at each reboot."""
         from hoverfly.sim.runner import SimRun
 
-        airframe, seed, mode, log_path, storage_path, duration_s = self._boot_args
+        airframe, seed, mode, log_path, storage_path, duration_s, overrides = self._boot_args
         scenario = {"name": "sim", "duration_s": 3600.0, "mode": mode, "events": [], "params": {}}
         self.run = SimRun(airframe, scenario, seed, (), 3600.0, realtime=True, log_path=log_path)
         self.run.duration_s = duration_s
@@ -193,6 +193,10 @@ class SimServer:
         board.serial = self.ports
         self.storage = Storage(board)
         self.storage_status = self.storage.load(self.run.params)
+        for name, value in overrides:  # over the stored set, as `hoverfly fly --set` (not saved)
+            err = self.run.params.set(name, value)
+            if err:
+                raise UserError(err)
         self.flight = self.run.flight
         self.flight.storage = self.storage
         self.links = attach(self.flight, self.storage)  # after the load: serial_update_hz is a reboot parameter
