@@ -4,6 +4,7 @@ import json
 import sys
 
 from hoverfly.core.output import PROTOCOLS
+from hoverfly.core.params import check
 from hoverfly.errors import UserError
 
 
@@ -13,6 +14,9 @@ def _parse_set(items):
         if "=" not in item:
             raise UserError("--set expects name=value, got '%s'" % item)
         name, value = item.split("=", 1)
+        _, _, err = check(name.strip(), value.strip())  # the table's one check, aliases included
+        if err:
+            raise UserError("--set %s: %s" % (item.strip()[:60], err))
         pairs.append((name.strip(), value.strip()))
     return pairs
 
