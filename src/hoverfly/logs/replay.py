@@ -90,8 +90,8 @@ class ReplayReceiver:
         rc = log.topic("input_rc")
         self.frames_at = {}
         self.values = []
-        if rc is not None:
-            vals = log.vector("input_rc", "values", _RC_CHANNELS)
+        vals = log.vector("input_rc", "values", _RC_CHANNELS)
+        if rc is not None and vals is not None:
             for j, t in enumerate(rc["timestamp"].astype(np.int64).tolist()):
                 self.frames_at[t] = j
             self.values = vals.astype(int).tolist()
@@ -130,6 +130,14 @@ class ReplayReceiver:
         return 0
 
 
+def _set_logged(params, name, value):
+    """params.set for a value read from a log (any bytes a file holds): its refusal as text."""
+    try:
+        return params.set(name, value)
+    except (ValueError, OverflowError, TypeError) as exc:  # a damaged value the table's check let through
+        return "%s = %r: %s" % (name, value, exc)
+
+
 def params_from_log(log, overrides=()):
     """The logged parameters (board alignment zeroed), then `overrides` (name, value).
 
@@ -138,7 +146,7 @@ def params_from_log(log, overrides=()):
     unknown = []
     for name, value in log.params.items():
         if name in params.values:
-            err = params.set(name, value)
+            err = _set_logged(params, name, value)
             if err:
                 unknown.append("%s (%s)" % (name, err))
     for name in _ALIGNMENT:
@@ -203,7 +211,7 @@ def replay(log, overrides=()):
     if log.topic("sensor_combined") is None or log.vector("sensor_combined", "gyro_rad", 3) is None:
         raise UserError("%s: no sensor_combined samples: not a hoverfly flight log, nothing to replay"
                         % log.path)
-    if log.topic("input_rc") is None:
+    if log.topic("input_rc") is None or log.vector("input_rc", "values", _RC_CHANNELS) is None:
         warnings.append("no input_rc frames in the log: the replay has no pilot input")
     params, unknown = params_from_log(log, overrides)
     for u in unknown:
@@ -245,7 +253,9 @@ def replay(log, overrides=()):
             _, name, value = changes[ci]
             ci += 1
             if name not in override_names and name not in _ALIGNMENT and name in params.values:
-                params.set(name, value)
+                err = _set_logged(params, name, value)
+                if err and len(warnings) < 20:
+                    warnings.append("logged parameter change not applied: " + err)
         board.k = k
         now = ticks_add(_ORIGIN_TICKS, t)
         board.now = now
@@ -267,6 +277,15 @@ def replay(log, overrides=()):
     old = _logged_outputs(log, n_motors, n)
     new = {k: v for k, v in new.items() if k in old}
     t_s = (board.t64 - log.start_us) * 1e-6
+    # A damaged log can hold fewer samples of an output topic than of sensor_combined: compare
+    # (and plot) the passes every logged series covers.
+    short = min([len(v) for v in old.values()] + [n])
+    if short < n:
+        warnings.append("the logged outputs hold %d samples for %d sensor samples: compared over the first %d "
+                        "passes" % (short, n, short))
+        old = {k: v[:short] for k, v in old.items()}
+        new = {k: v[:short] for k, v in new.items()}
+        t_s = t_s[:short]
     return ReplayResult(t_s, old, new, warnings, overrides)
 
 

@@ -11,6 +11,23 @@ skips corrupt data, and can trip over its own numpy conversion on corrupted form
 that is caught here: a file that cannot be read at all is a `LogReadError` (a UserError, so
 the CLI prints one line); a file read in part comes back with `file_corruption` and
 `warnings` set. Nothing else escapes for any bytes on disk.
+
+Reading always ends, in time bounded by the file's size (issue 30: pyulog 1.3 hung on 46 of
+37 505 mutated logs). pyulog reads through `_BoundedFile`, not the file itself:
+- pyulog steps over a corrupt header by reading its claimed payload and seeking back
+  `2 + size` bytes, one byte past the header. Near the end of the file that read comes back
+  short, the seek lands before the header and the same bytes are read again forever. Here a
+  read advances the position by what was asked, as pyulog assumes, so the step is one byte.
+- Whatever else pyulog's recovery does, `_BoundedFile` counts its reads and seeks (a 64 KB
+  read as two calls: the copy costs about as much as a call) and past CALLS_PER_BYTE per byte
+  of the file (plus CALLS_FLOOR) answers end-of-file, so pyulog ends with what it has and the
+  reader says where it stopped. A byte-by-byte walk through damage takes about 3 calls a
+  byte (measured on mutated logs, tests/test_log_reader_fuzz.py), a clean log under 1.
+- A subscription flattens its format (nested formats, arrays) into one field per value.
+  A format of more than MAX_FIELDS values can never fit a data message (65 535 bytes, at
+  least one each) and nesting can make it exponential; such a subscription is refused as
+  corrupt (pyulog skips it and reads on), and all subscriptions together get at most
+  MAX_TOTAL_FIELDS.
 """
 
 import contextlib
@@ -35,25 +52,133 @@ class LogReadError(UserError):
     """A log file that cannot be read: missing, not ULog, or damaged beyond reading."""
 
 
+CALLS_PER_BYTE = 16  # reads and seeks pyulog may make per byte of the file
+CALLS_FLOOR = 1 << 20  # and this many more, whatever the size
+MAX_FIELDS = 65533  # values in one format: a data message holds 65 535 bytes, 2 of them the msg_id
+MAX_TOTAL_FIELDS = 1 << 19  # all subscriptions together: pyulog builds objects at ~3 µs a value
+# (a PX4 log holds some 30 000 values in all its subscriptions, hoverfly's fewer than 2 000)
+MAX_WARNINGS = 20
+MAX_NESTING = 32  # formats inside formats (PX4 nests two or three deep)
+
+
+class _BoundedFile:
+    """A log's bytes as the file object pyulog reads, with its calls counted and bounded.
+
+    `read(n)` moves the position on by n even where the file ends first (pyulog seeks back
+    from where a whole read would have left it); a negative seek target is a ValueError
+    (pyulog counts that as corruption and reads on). Once `calls` passes `budget` every read
+    is end-of-file and `stopped_at` says where.
+    """
+
+    def __init__(self, data, budget):
+        self._data = data
+        self._pos = 0
+        self.calls = 0
+        self.budget = budget
+        self.stopped_at = -1
+
+    def read(self, n=-1):
+        pos = self._pos
+        if n is None or n < 0:
+            n = max(0, len(self._data) - pos)
+        self.calls += 1 + (n >> 16)
+        if self.calls > self.budget:
+            if self.stopped_at < 0:
+                self.stopped_at = min(pos, len(self._data))
+            return b""
+        self._pos = pos + n
+        return self._data[pos : pos + n]
+
+    def seek(self, offset, whence=0):
+        self.calls += 1
+        if whence == 1:
+            offset += self._pos
+        elif whence == 2:
+            offset += len(self._data)
+        if offset < 0:
+            raise ValueError("negative seek position %d" % offset)
+        self._pos = offset
+        return offset
+
+    def tell(self):
+        return self._pos
+
+    def close(self):
+        pass
+
+
+def _format_values(formats, name, memo, depth=0):
+    """How many values format `name` flattens into (arrays and nested formats counted out);
+    MAX_FIELDS + 1 for one that is too big, nests too deep or contains itself."""
+    if name in memo:
+        return memo[name]
+    if depth > MAX_NESTING:
+        return MAX_FIELDS + 1
+    memo[name] = MAX_FIELDS + 1  # while counting: a format met again inside itself is a loop
+    from pyulog import ULog
+
+    total = 0
+    fmt = formats.get(name)
+    for type_name, array_size, _field in fmt.fields if fmt is not None else ():
+        if type_name in ULog._UNPACK_TYPES:
+            each = 1
+        elif type_name in formats:
+            each = _format_values(formats, type_name, memo, depth + 1)
+        else:
+            each = 0  # pyulog itself refuses the unknown type (KeyError)
+        total += each * max(1, array_size)
+        if total > MAX_FIELDS:
+            total = MAX_FIELDS + 1
+            break
+    memo[name] = total
+    return total
+
+
+def _bounded_ulog_class():
+    """pyulog's ULog with subscriptions whose flattened size is checked before pyulog builds them."""
+    from pyulog import ULog
+
+    counted = [0]
+
+    class _AddLogged(ULog._MessageAddLogged):
+        def _parse_format(self, message_formats):
+            n = _format_values(message_formats, self.message_name, {})
+            if n > MAX_FIELDS:
+                # a ValueError: pyulog counts the subscription as corrupt and reads on
+                raise ValueError("format %r has more values than a message can hold" % self.message_name[:40])
+            counted[0] += n
+            if counted[0] > MAX_TOTAL_FIELDS:
+                raise ValueError("subscriptions hold more than %d values in all" % MAX_TOTAL_FIELDS)
+            ULog._MessageAddLogged._parse_format(self, message_formats)
+
+    class _BoundedULog(ULog):
+        _MessageAddLogged = _AddLogged
+
+    return _BoundedULog
+
+
 def open_ulog(path, topics=None):
     """Parse `path` with pyulog; returns (ULog, warnings list). Raises LogReadError only.
 
     `topics`: optional list of topic names to load (pyulog's message_name_filter_list).
     """
     try:
-        from pyulog import ULog
         from pyulog.exceptions import ULogException
     except ImportError as exc:  # pragma: no cover - pyulog is a declared dependency
         raise LogReadError("reading ULog needs pyulog (%s)" % exc) from None
     name = os.fspath(path)
     try:
-        handle = open(name, "rb")  # noqa: SIM115 - pyulog closes it
+        with open(name, "rb") as f:
+            data = f.read()
     except OSError as exc:
         raise LogReadError("%s: cannot open (%s)" % (name, exc.strerror or exc)) from None
+    except MemoryError:
+        raise LogReadError("%s: too big to read into memory" % name) from None
+    handle = _BoundedFile(data, CALLS_FLOOR + CALLS_PER_BYTE * len(data))
     printed = io.StringIO()
     try:
         with contextlib.redirect_stdout(printed):
-            ulog = ULog(handle, topics, disable_str_exceptions=True)
+            ulog = _bounded_ulog_class()(handle, topics, disable_str_exceptions=True)
     except ULogException as exc:
         raise LogReadError("%s: not a readable ULog file (%s)" % (name, exc)) from None
     except (MemoryError, RecursionError) as exc:
@@ -62,26 +187,25 @@ def open_ulog(path, topics=None):
         raise LogReadError(
             "%s: ULog file too damaged to read (%s: %s)" % (name, type(exc).__name__, _one_line(exc))
         ) from None
-    finally:
-        handle.close()
     warnings = [line.strip() for line in printed.getvalue().splitlines() if line.strip()]
-    cut = framing_end(name)
+    if len(warnings) > MAX_WARNINGS:  # pyulog says it once per unknown msg_id: up to 65 536 lines
+        warnings[MAX_WARNINGS:] = ["... and %d more such warnings" % (len(warnings) - MAX_WARNINGS)]
+    if handle.stopped_at >= 0:
+        ulog._file_corrupt = True
+        warnings.append("too damaged to read on past byte %d of %d: read up to there" % (handle.stopped_at,
+                                                                                        len(data)))
+    cut = framing_end(data)
     if cut is not None:
         warnings.append("file ends inside a message at byte %d of %d (cut off?): read up to the last whole "
                         "message" % cut)
     return ulog, warnings
 
 
-def framing_end(path):
-    """(offset of the unfinished message, file size) when the file ends inside a message, else None.
+def framing_end(data):
+    """(offset of the unfinished message, file size) when a log's bytes end inside a message, else None.
 
     Walks the message headers only (u16 size, u8 type); pyulog reads such a file silently.
     """
-    try:
-        with open(path, "rb") as f:
-            data = f.read()
-    except OSError:
-        return None
     n = len(data)
     off = 16
     if n < off:
