@@ -21,6 +21,7 @@ It counts what was taken and why the rest was refused.
 from hoverfly.core.autopilot import RES_ARM_REFUSED, RES_TAKEN, RESULT_TEXTS, arm_refusal_text
 from hoverfly.core.board import SERIAL_CONFIG
 from hoverfly.core.links import attach
+from hoverfly.core.rc import aux_channel, map_channels
 from hoverfly.errors import UserError
 from hoverfly.protocols import msp
 
@@ -85,7 +86,8 @@ class Companion:
         self._last_t = 0.0
         rc = flight.rc  # the channel map the flight reads MSP RC with, as the receiver's (Betaflight's rcmap)
         self.map = (rc.roll_ch, rc.pitch_ch, rc.yaw_ch, rc.throttle_ch)
-        self.arm_ch = params.get("arm_ch")
+        # its arm channel: AUX1 of its frame wherever the map puts the arm switch's AUX (as the autopilot reads it)
+        self.arm_ch = aux_channel(map_channels(params.get("rc_map")), params.get("arm_ch"))
         self.sending = False
         self.rate_hz = 100.0
         self.roll = 0.0
