@@ -21,5 +21,6 @@ def test_400_hz_rc_and_400_hz_polling_lose_nothing(serial_hz):
     assert r["polls_sent"] == 1600 and r["polls_answered"] == r["polls_sent"]
     assert r["replies_in_order"] and r["error_replies"] == 0
     assert r["frames_dropped"] == 0 and r["reply_bytes_dropped"] == 0
-    # the links task answers within a run or two (10 ms at Betaflight's 100 Hz); the machine's scheduling on top
-    assert r["latency_ms_p50"] < (5.0 if serial_hz >= 1000 else 15.0), r
+    # the links task answers within a run or two (10 ms at Betaflight's 100 Hz); a loaded machine's
+    # scheduling comes on top (the figures are bench/msp_rate.py's)
+    assert r["latency_ms_p50"] < (10.0 if serial_hz >= 1000 else 25.0), r
