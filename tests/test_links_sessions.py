@@ -299,12 +299,6 @@ def test_the_config_port_tells_msp_cli_and_maintenance_apart_by_their_first_byte
     assert len(flight.rc_calls) == 3 and flight.rc_calls[0][0] == 1535
 
 
-def test_rp2_board_serves_the_config_port_on_usb():
-    src = (Path(__file__).parents[1] / "src/hoverfly/boards/rp2/board.py").read_text()
-    # USB CDC is SERIAL_CONFIG: the port ConfigPort serves MSP, CLI and maintenance on.
-    assert "USB (SERIAL_CONFIG" in src
-
-
 # ------------------------------------------------------------------------------------ reboot
 def test_msp_reboot_restarts_the_sim_with_the_stored_reboot_parameter(sim):
     s = _connect(sim)
