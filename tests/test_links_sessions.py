@@ -11,6 +11,8 @@ import time
 from pathlib import Path
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 sys.path.insert(0, str(Path(__file__).parent / "portable"))
 from configfakes import make_flight  # noqa: E402
@@ -364,3 +366,41 @@ def test_rp2_usb_answers_msp_and_maintenance_and_msp_reboot_resets_after_the_rep
     q.feed(tx)
     assert q.pop() and dict(q.values)["imu_type"] == mp.IMU_MPU6050
     assert r["resets"] == [len(tx)]  # one reset, after the reply was written
+
+
+# ------------------------------------------------------------------------------------ property
+_READS = (msp.MSP_API_VERSION, msp.MSP_STATUS, msp.MSP_ATTITUDE, msp.MSP_RAW_IMU, msp.MSP_RC, msp.MSP_MOTOR)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.one_of(st.sampled_from(_READS), st.just("maint")), min_size=1, max_size=80),
+       st.lists(st.integers(1, 700), min_size=1, max_size=20))
+def test_any_pipelined_mix_in_any_chunking_gets_every_answer_in_order(items, cuts):
+    links, flight, board = _links()
+    maint = mp.encode_request(["body_roll"])
+    data = b"".join(maint if it == "maint" else msp.encode_request(it) for it in items)
+    k = 0
+    c = 0
+    while k < len(data):  # the bytes arrive in pieces between runs
+        n = cuts[c % len(cuts)]
+        board.rx[SERIAL_CONFIG] += data[k:k + n]
+        k += n
+        c += 1
+        links.task(board.now_us())
+        board.t_us += 1000
+    for _ in range(len(items) // REQUESTS_PER_RUN + 2):
+        links.task(board.now_us())
+    out = board.take(SERIAL_CONFIG)
+    got = []
+    i = 0
+    while i < len(out):  # the replies, MSP and maintenance, in the order they were written
+        if out[i] == 0xFF:
+            got.append("maint")
+            i += 1 + 8 + 4 + 1  # header, body_roll (f32), checksum
+        else:
+            size = out[i + 3]
+            got.append(out[i + 4])
+            assert out[i + 2] == msp.DIR_REPLY
+            i += 6 + size
+    assert got == items
+    assert links.config.dropped() == 0 and links.partial_timeouts == 0
