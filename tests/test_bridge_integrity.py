@@ -254,3 +254,28 @@ def test_a_boot_frame_of_the_wrong_length_is_refused_by_the_firmware():
     d = B.BridgeDecoder()
     assert d.feed(fw.out, n) == 1 and d.pop() == B.ERROR and "malformed BOOT" in d.text()
     assert fw.flight is None
+
+
+def test_a_frame_of_an_unknown_kind_is_never_delivered_even_with_a_good_crc():
+    dec = B.BridgeDecoder()
+    buf = bytearray(40)
+    n = B.finish(buf, 0x7E, 10)  # a CRC-correct frame of a kind neither end speaks
+    assert dec.feed(bytes(buf[:n]) + B.frame(B.ACK, b"ok")) == 1
+    assert dec.kind_errors == 1 and dec.pop() == B.ACK and dec.text() == "ok" and dec.pop() == -1
+
+
+def test_the_firmware_frames_the_stream_as_its_decoder_does_past_an_unknown_kind():
+    import io
+
+    from hoverfly.boards.bridge_fw import Firmware, serve
+
+    buf = bytearray(40)
+    n = B.finish(buf, 0x7E, 10)
+    stream = io.BytesIO(bytes(buf[:n]) + B.frame(B.HELLO, B.VERSION.encode()) + B.frame(B.QUIT))
+    out = io.BytesIO()
+    fw = Firmware()
+    assert serve(stream, out, fw) == 0
+    d = B.BridgeDecoder()
+    d.feed(out.getvalue())
+    assert d.pop() == B.HELLO and d.text() == B.VERSION
+    assert d.pop() == B.ACK and d.pop() == -1  # QUIT's ACK; nothing was answered for the unknown kind

@@ -329,6 +329,11 @@ def serve(stream_in, stream_out, firmware=None):
             continue
         if not _read_exact(readinto, head, B.HEADER - 1):
             return 0
+        # Checked here as the decoder checks them, so both frame the stream alike: an unknown
+        # kind or a length past MAX_PAYLOAD is no frame, and hunting goes on.
+        if head[0] not in B.KINDS:
+            dec.kind_errors += 1
+            continue
         n = head[1] | (head[2] << 8)
         if n > B.MAX_PAYLOAD:
             dec.length_errors += 1

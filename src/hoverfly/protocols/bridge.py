@@ -10,7 +10,9 @@ status flags and the events recorded since the last answer. Portable: both ends 
 Frame: `B5 kind len_lo len_hi payload... crc`; len is the payload length (0..1024),
 the CRC is CRC-8/DVB-S2 (the CRSF polynomial 0xD5) over kind, both length bytes and the
 payload. All fields little-endian. `BridgeDecoder.feed` takes any chunking, resyncs on
-garbage and counts (frames, crc_errors, length_errors, resyncs); it never raises.
+garbage and counts (frames, crc_errors, length_errors, kind_errors, resyncs); it never raises.
+A frame is delivered only when its kind is one of KINDS, its length at most MAX_PAYLOAD and
+its CRC right; a sync byte followed by an unknown kind is garbage (hunting goes on from there).
 
 Kinds and payloads:
 - HELLO host->fw  text VERSION: start a new session (the firmware forgets any parameters and
@@ -208,6 +210,7 @@ class BridgeDecoder:
         self.frames = 0
         self.crc_errors = 0
         self.length_errors = 0
+        self.kind_errors = 0
         self.resyncs = 0
         self.overruns = 0
         self.bytes = 0
@@ -249,9 +252,15 @@ class BridgeDecoder:
                 else:
                     self.resyncs += 1
             elif state == _KIND:
-                self._kind = b
-                self._crc = t[b]
-                state = _LEN_LO
+                if b in KINDS:
+                    self._kind = b
+                    self._crc = t[b]
+                    state = _LEN_LO
+                elif b == SYNC:
+                    self.kind_errors += 1  # a second sync: it may be the real start
+                else:
+                    self.kind_errors += 1
+                    state = _HUNT
             elif state == _LEN_LO:
                 self._want = b
                 self._crc = t[self._crc ^ b]
