@@ -404,3 +404,51 @@ def test_any_pipelined_mix_in_any_chunking_gets_every_answer_in_order(items, cut
             i += 6 + size
     assert got == items
     assert links.config.dropped() == 0 and links.partial_timeouts == 0
+
+
+def test_requests_a_false_frame_start_swallowed_are_all_answered_when_it_fails():
+    # given '$M<' and a size of 200 in front of 40 real requests: the candidate takes them in, then its
+    # checksum fails; a plain feed's rescan finds 40 frames for a 4-deep queue and overwrites 36
+    links, flight, board = _links()
+    data = b"$M<" + bytes([200, 1]) + msp.encode_request(msp.MSP_API_VERSION) * 40
+    plain = msp.MspParser(queue_depth=4)
+    plain.feed(data)
+    assert plain.dropped == 36
+    board.rx[SERIAL_CONFIG] += data
+    for _ in range(6):
+        links.task(board.now_us())
+        board.t_us += 1000
+    assert _replies(board.take(SERIAL_CONFIG)) == [msp.MSP_API_VERSION] * 40
+    assert links.config.dropped() == 0
+
+
+_FRAME = st.builds(lambda cmd, payload: msp.encode_request(cmd, payload), st.integers(0, 254),
+                   st.binary(max_size=40))
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.lists(st.one_of(_FRAME, st.binary(max_size=30), st.just(b"$M<\xc8\x01"), st.just(b"$X<")), max_size=40),
+       st.lists(st.integers(1, 300), min_size=1, max_size=10), st.integers(1, 4))
+def test_feed_some_delivers_what_an_unbounded_queue_would_however_small_its_queue(parts, cuts, depth):
+    data = b"".join(parts)
+    whole = msp.MspParser(queue_depth=4096)
+    whole.feed(data)
+    expected = []
+    while whole.pop():
+        expected.append((whole.cmd, whole.message()))
+    p = msp.MspParser(queue_depth=depth)
+    got = []
+    k = 0
+    c = 0
+    while k < len(data) or p.pending() or p.carrying():
+        n = min(len(data), k + cuts[c % len(cuts)])
+        c += 1
+        i = k
+        while True:  # a server's serve(): feed as the queue allows, pop, answer
+            i = p.feed_some(data, i, n)
+            while p.pop():
+                got.append((p.cmd, p.message()))
+            if i >= n and not p.carrying():
+                break
+        k = n
+    assert got == expected and p.dropped == 0

@@ -76,7 +76,7 @@ class ConfigPort:
                 break
             if maint.in_frame():
                 # A maintenance frame under way: a byte at a time, so it takes nothing past its end.
-                while i < n and maint.in_frame():
+                while i < n and maint.in_frame() and not maint.pending():
                     i = maint.parser.feed_some(data, i, i + 1)
                 continue
             # MSP (or bytes between frames) up to the next byte that can start another protocol.

@@ -87,8 +87,9 @@ class MaintServer:
         self.parser.idle()
 
     def pending(self):
-        """Requests parsed and not yet answered (serve() stopped at its budget)."""
-        return self.parser.pending()
+        """Requests parsed and not yet answered (serve() stopped at its budget), or taken bytes not yet
+        scanned (the parser's carry): either way serve() has work without a new byte."""
+        return self.parser.pending() or self.parser.carrying()
 
     def _motor_control(self, on):
         f = self.flight
@@ -105,7 +106,7 @@ class MaintServer:
         i = 0
         while True:
             i = self.serve(data, i, n, write, 64)
-            if i >= n and not self.parser.pending():
+            if i >= n and not self.pending():
                 return
 
     def serve(self, data, start, n, write, budget):
@@ -117,7 +118,7 @@ class MaintServer:
         done = 0
         while done < budget:
             if not p.pending():
-                if i >= n:
+                if i >= n and not p.carrying():
                     break
                 i = p.feed_some(data, i, n)
                 if not p.pending():

@@ -105,15 +105,16 @@ class MspServer:
         self.parser.idle()
 
     def pending(self):
-        """Requests parsed and not yet answered (serve() stopped at its budget)."""
-        return self.parser.pending()
+        """Requests parsed and not yet answered (serve() stopped at its budget), or taken bytes not yet
+        scanned (the parser's carry): either way serve() has work without a new byte."""
+        return self.parser.pending() or self.parser.carrying()
 
     def feed(self, data, n, write):
         """Answer every request in data[:n], in order."""
         i = 0
         while True:
             i = self.serve(data, i, n, write, 64)
-            if i >= n and not self.parser.pending():
+            if i >= n and not self.pending():
                 return
 
     def serve(self, data, start, n, write, budget):
@@ -126,7 +127,7 @@ class MspServer:
         done = 0
         while done < budget:
             if not p.pending():
-                if i >= n:
+                if i >= n and not p.carrying():
                     break
                 i = p.feed_some(data, i, n)
                 if not p.pending():

@@ -139,7 +139,9 @@ class FrameScanner:
     one of `queue_depth` preallocated slots; `_next()` hands the oldest out. `feed` takes every byte:
     when the queue is full the oldest frame is overwritten and counted in `dropped`. A server that
     must answer every request uses `feed_some` instead: it stops at a full queue and says how far it
-    got, so the caller pops, answers and feeds the rest (nothing is overwritten).
+    got, so the caller pops, answers and feeds the rest (nothing is overwritten). Bytes a failed
+    candidate had swallowed are then kept (`carrying()`) and scanned first at the next feed_some,
+    before any new byte, even with no new bytes (`feed_some(data, n, n)`).
 
     Counters: `frames` (delivered), `crc_errors`, `resyncs` (bytes skipped hunting for a frame
     start, plus false syncs), `length_errors` (impossible headers), `dropped`, `bytes`.
@@ -160,6 +162,8 @@ class FrameScanner:
         self._want = 0  # its total length once known, else 0
         self._new = 0
         self._hold = False  # feed_some: stop scanning at a full queue
+        self._carry = 0  # feed_some: bytes of a failed candidate in _scratch still to scan (from _carry_at)
+        self._carry_at = 0
         self._frame_total = 0  # length of the frame _next() handed out
         self.frames = 0
         self.crc_errors = 0
@@ -183,14 +187,33 @@ class FrameScanner:
         The bytes from there on were not looked at: hand them in again once frames have been popped."""
         self._new = 0
         self._hold = True
-        end = self._scan(data, start, n)
+        i = start
+        while True:
+            if self._carry:
+                # what a failed candidate swallowed comes before data[i:] in the stream
+                m = self._carry
+                self._carry = 0
+                c = self._scan(self._scratch, self._carry_at, m)
+                if c < m:
+                    self._carry = m
+                    self._carry_at = c
+                    break  # the queue is full
+            if i >= n:
+                break
+            i = self._scan(data, i, n)
+            if not self._carry:
+                break  # all taken, or the queue is full
         self._hold = False
-        self.bytes += end - start
-        return end
+        self.bytes += i - start
+        return i
+
+    def carrying(self):
+        """feed_some: bytes already taken and not yet scanned (a failed candidate's) are waiting."""
+        return self._carry != 0
 
     def in_frame(self):
-        """True while a frame is half received."""
-        return self._pos != 0
+        """True while a frame is half received (or taken bytes wait to be scanned: they come first)."""
+        return self._pos != 0 or self._carry != 0
 
     def pending(self):
         """Frames waiting in the queue."""
@@ -210,6 +233,7 @@ class FrameScanner:
         self._want = 0
         self._head = 0
         self._count = 0
+        self._carry = 0
 
     def reset_counters(self):
         self.frames = self.crc_errors = self.resyncs = self.length_errors = self.dropped = self.bytes = 0
@@ -228,8 +252,8 @@ class FrameScanner:
         """Scan src[i:n]; return where it stopped: n, or (feed_some) the first byte not taken."""
         sync = self._sync_byte
         while i < n:
-            if self._hold and self._count >= self._depth:
-                return i
+            if self._hold and (self._count >= self._depth or self._carry):
+                return i  # the queue is full, or a failed candidate's bytes must be scanned first
             if self._pos:
                 i = self._assemble(src, i, n)
                 continue
@@ -305,9 +329,8 @@ class FrameScanner:
 
     def _rescan(self, m):
         # As the one-chunk path does: drop the sync byte, search buf[1:m] again. The rescan starts
-        # with no partial frame, so it can only stash (never complete) one: no recursion. The bytes
-        # are already taken, so the rescan does not stop at a full queue (feed_some): a frame it
-        # finds then overwrites the oldest, counted in `dropped`.
+        # with no partial frame, so it can only stash (never complete) one: no recursion. Under
+        # feed_some the bytes are carried instead: scanned before any new byte, as the queue has room.
         self.resyncs += 1
         buf = self._buf
         scratch = self._scratch
@@ -315,10 +338,11 @@ class FrameScanner:
             scratch[k - 1] = buf[k]
         self._pos = 0
         self._want = 0
-        hold = self._hold
-        self._hold = False
+        if self._hold:
+            self._carry = m - 1
+            self._carry_at = 0
+            return
         self._scan(scratch, 0, m - 1)
-        self._hold = hold
 
     def _deliver(self, src, i, total):
         depth = self._depth
