@@ -482,11 +482,12 @@ class RcInput:
         """Heading hold, at 100 Hz (Flight.task_arming; seed 001 holds yaw at its zero): with the yaw stick
         centred (in its deadband) the yaw rate setpoint steers back to the heading the stick was centred at,
         yaw_hold_p rad/s per radian of error, capped at the stick's full rate. Disarmed, or with the stick
-        off centre, the heading to hold follows the craft: arming, or centring the stick, sets it there."""
+        off centre, nothing is held: arming, or centring the stick, takes the heading of that moment."""
         if not armed or self.stick_raw[2] != 0.0:
-            self.heading_rad = yaw_rad
             self.holding = False
             return
+        if not self.holding:  # just armed, or the stick just centred: hold this heading
+            self.heading_rad = yaw_rad
         err = self.heading_rad - yaw_rad
         if err > math.pi:
             err -= 2.0 * math.pi
@@ -606,11 +607,15 @@ class RcInput:
     def _update_float(self, sp):
         f = self.filters
         if self._smooth_type != "pt2":
+            # Alpha-beta overshoots a step (its velocity term): held to the sticks' range, so a full stick
+            # never asks for more than angle_limit or the full rate.
             s = sp.stick_norm
-            s[0] = f[0].update(self.stick_raw[0])
-            s[1] = f[1].update(self.stick_raw[1])
-            s[2] = f[2].update(self.stick_raw[2])
-            sp.throttle_norm = f[3].update(self.throttle_raw)
+            raw = self.stick_raw
+            for i in range(3):
+                v = f[i].update(raw[i])
+                s[i] = 1.0 if v > 1.0 else (-1.0 if v < -1.0 else v)
+            v = f[3].update(self.throttle_raw)
+            sp.throttle_norm = 1.0 if v > 1.0 else (0.0 if v < 0.0 else v)
             self.fill_setpoint(sp)
             return
         # PT2 (the default): Pt2.update's arithmetic inline on the same filter objects, and a filter

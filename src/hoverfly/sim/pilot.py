@@ -1,16 +1,17 @@
 """The scenario pilot: sticks and switches on a transmitter, moved as a pilot would.
 
 It sees what a pilot sees (the craft's altitude, speed and attitude, from the physics)
-and writes channel pulse widths: AETR on channels 1-4, the arm switch on AUX1 (ch 5),
-the mode switch on AUX2 (ch 6: low acro, middle horizon, high angle). Beyond plain stick
+and writes channel pulse widths where the transmitter's channel map puts them (`map`, the
+flight's rc_map: AETR1234 by default): sticks, the arm switch on AUX1, the mode switch on
+AUX2 (low acro, middle horizon, high angle). Beyond plain stick
 positions it can hold an altitude with the throttle (the core has no altitude hold),
 fly to a point in angle mode, land, and fly a flip in acro.
 """
 
 import math
 
-ARM_CH = 4  # index: AUX1 = channel 5
-MODE_CH = 5  # AUX2 = channel 6
+ARM_CH = 4  # function index in the map: AUX1 (channel 5 in AETR1234)
+MODE_CH = 5  # AUX2 (channel 6)
 MODE_US = {"acro": 1000, "horizon": 1500, "angle": 2000}
 
 
@@ -40,6 +41,8 @@ class Pilot:
         self._flip_turned_rad = 0.0
         self.hover_guess = 0.35
         self.overrides_us = {}
+        # receiver channel (0-based) per function: roll, pitch, yaw, throttle, AUX1..4 (rc.map_channels)
+        self.map = [0, 1, 3, 2, 4, 5, 6, 7]
 
     # ------------------------------------------------------------------ commands
     def set_hold(self, alt_m, v):
@@ -143,11 +146,12 @@ class Pilot:
 
     def write(self, roll, pitch, yaw, throttle):
         ch = self.ch
-        ch[0] = int(1500 + 500 * _clamp(roll, -1.0, 1.0))
-        ch[1] = int(1500 + 500 * _clamp(pitch, -1.0, 1.0))
-        ch[2] = int(1000 + 1000 * _clamp(throttle, 0.0, 1.0))
-        ch[3] = int(1500 + 500 * _clamp(yaw, -1.0, 1.0))
-        ch[ARM_CH] = 2000 if self.arm else 1000
-        ch[MODE_CH] = MODE_US[self.mode]
+        m = self.map
+        ch[m[0]] = int(1500 + 500 * _clamp(roll, -1.0, 1.0))
+        ch[m[1]] = int(1500 + 500 * _clamp(pitch, -1.0, 1.0))
+        ch[m[3]] = int(1000 + 1000 * _clamp(throttle, 0.0, 1.0))
+        ch[m[2]] = int(1500 + 500 * _clamp(yaw, -1.0, 1.0))
+        ch[m[ARM_CH]] = 2000 if self.arm else 1000
+        ch[m[MODE_CH]] = MODE_US[self.mode]
         for idx, us in self.overrides_us.items():
             ch[idx] = int(us)

@@ -31,6 +31,7 @@ from hoverfly.core.failsafe import CAUSES, FAULT_NAMES, PROCEDURES
 from hoverfly.core.flight import Flight
 from hoverfly.core.mixer import MIXER_TABLES
 from hoverfly.core.params import Params
+from hoverfly.core.rc import map_channels
 from hoverfly.core.scheduler import PS_JITTER_MAX
 from hoverfly.errors import UserError
 from hoverfly.sim.airframes import load_airframe
@@ -170,6 +171,7 @@ class SimRun:
             self.flight = BridgedFlight(self.board, self.params, self.firmware, micropython, port=hil, baud=baud,
                                         bundle=bundle)
         self.pilot = Pilot(self.board.channels_us, self.scenario["mode"])
+        self.pilot.map = map_channels(self.params.get("rc_map"))  # the transmitter as the flight reads it
         self.pilot.hover_guess = self._hover_throttle_guess()
         self.events_out = []
         self.on_step = None  # optional hook: fn(run) after every pass (logger, ground station)
