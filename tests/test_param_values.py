@@ -221,3 +221,41 @@ def test_set_mixer_hexx_in_the_running_loop_on_the_5inch_then_it_arms_and_hovers
     assert result["max_tilt_deg"] < 30.0 and 1.0 < result["altitude_m"]["final"] < 3.0
     assert run.flight.mixer.n == 4 and run.params.get("mixer_type") == "quadx"
     assert run.params.pending == {"mixer_type": "hexx"}
+
+
+def test_hoverfly_sim_over_tcp_answers_the_lines_that_killed_it_and_keeps_running(tmp_path):
+    import socket
+    import threading
+    import time
+
+    from hoverfly.core.board import SERIAL_CONFIG
+    from hoverfly.sim.server import SimServer
+
+    server = SimServer("5inch", 0, 0, str(tmp_path / "params.bin"), duration_s=60)
+    th = threading.Thread(target=server.serve, daemon=True)
+    th.start()
+    try:
+        s = socket.create_connection(server.ports.address(SERIAL_CONFIG), timeout=5)
+        s.sendall(b"#")
+        lines = (b"set p_roll = inf", b"set d_roll = nan", b"set failsafe_delay = 1e308", b"set mixer_type = hexx",
+                 b"set failsafe_procedure = drop", b"set p_rol = 3")
+        s.sendall(b"\r\n".join(lines) + b"\r\nget mixer_type\r\n")
+        text = b""
+        end = time.monotonic() + 10
+        while time.monotonic() < end and b"running quadx" not in text:
+            try:
+                text += s.recv(65536)
+            except TimeoutError:
+                break
+        text = text.decode()
+        assert text.count("###ERROR") == 4 and "finite" in text and "did you mean p_roll?" in text
+        assert "fs_procedure set to drop" in text and "mixer_type = hexx  (applies after reboot; running quadx)" in text
+        assert th.is_alive() and server.run.flight.mixer.n == 4
+        before_us = server.run.board.now_us()
+        time.sleep(0.3)
+        assert th.is_alive() and server.run.board.now_us() - before_us > 100_000  # the loop goes on
+        s.close()
+    finally:
+        server.stop()
+        th.join(5)
+    assert not th.is_alive()

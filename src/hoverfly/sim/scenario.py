@@ -28,12 +28,17 @@ Keys an `[[at]]` entry may hold (several at once):
     configuration sessions, 1 CLI, 2 MSP, 4 maintenance),
     channel ({ch = 5..16, us = 800..2200}: hold that channel at that pulse width from now on,
     e.g. an AUX mode switch; the pilot's own arm/mode switches are overridden too).
+
+Every key is checked before anything flies: numbers finite and in range, the right type, required
+keys present, parameters through the table's one check (core/params.check, aliases included; a
+reboot parameter belongs in [params], not in a `set` event). Anything wrong is one UserError line
+naming the key (an unknown key with the nearest known one).
 """
 
 import pathlib
 import tomllib
 
-from hoverfly.core.params import check_value
+from hoverfly.core.params import REBOOT, check, nearest, row, show
 from hoverfly.errors import UserError
 
 HERE = pathlib.Path(__file__).parent / "scenarios"
@@ -45,6 +50,8 @@ _EVENT_KEYS = {
     "imu_stuck", "autopilot_switch", "msp_rc", "config_session", "channel",
 }
 _MSP_RC_KEYS = ("roll", "pitch", "yaw", "throttle", "arm", "rate_hz", "channels", "hold_altitude_m")
+_TOP_KEYS = ("name", "description", "duration_s", "mode", "at", "params", "judge_from_s", "airframe")
+_STEP_KEYS = ("axis", "to", "unit")
 _MODES = ("acro", "angle", "horizon")
 _AXES = ("roll", "pitch", "yaw")
 
@@ -53,18 +60,39 @@ def builtin_names():
     return sorted(p.stem for p in HERE.glob("*.toml"))
 
 
+def unknown_key(where, key, known, what="key"):
+    """The UserError for a key a table does not have, naming the nearest known one."""
+    guess = nearest(key, known) if isinstance(key, str) else None
+    hint = " (did you mean %s?)" % guess if guess else " (known: %s)" % ", ".join(sorted(known))
+    return UserError("%s: unknown %s '%s'%s" % (where, what, show(key), hint))
+
+
 def _num(where, key, value, lo, hi):
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise UserError("%s: %s must be a number" % (where, key))
+        raise UserError("%s: %s must be a number, not %s" % (where, key, show(value)))
+    if isinstance(value, float) and value - value != 0.0:
+        raise UserError("%s: %s must be a finite number, not %s" % (where, key, show(value)))
     if value < lo or value > hi:
-        raise UserError("%s: %s = %s is out of range %s .. %s" % (where, key, value, lo, hi))
+        raise UserError("%s: %s = %s is out of range %s .. %s" % (where, key, show(value), lo, hi))
     return float(value)
+
+
+def _params(where, table, in_flight):
+    """Each name = value through the parameter table's check (names and aliases as every surface)."""
+    if not isinstance(table, dict):
+        raise UserError("%s must be a table of parameter = value" % where)
+    for name, value in table.items():
+        key, _, err = check(name, value)
+        if err:
+            raise UserError("%s: %s" % (where, err))
+        if in_flight and row(key)[5] == REBOOT:
+            raise UserError("%s: %s applies after a reboot: set it in the scenario's [params]" % (where, key))
 
 
 def _check_event(where, ev, duration_s):
     unknown = sorted(set(ev) - _EVENT_KEYS)
     if unknown:
-        raise UserError("%s: unknown key '%s'" % (where, unknown[0]))
+        raise unknown_key(where, unknown[0], _EVENT_KEYS)
     if "t" not in ev:
         raise UserError("%s: every [[at]] needs a time t" % where)
     _num(where, "t", ev["t"], 0.0, duration_s)
@@ -127,6 +155,9 @@ def _check_event(where, ev, duration_s):
         st = ev["step"]
         if not isinstance(st, dict) or st.get("axis") not in _AXES or "to" not in st:
             raise UserError("%s: step needs axis (roll, pitch, yaw) and to" % where)
+        for k in st:
+            if k not in _STEP_KEYS:
+                raise unknown_key(where + " step", k, _STEP_KEYS, "field")
         if st.get("unit", "dps") not in ("dps", "deg"):
             raise UserError("%s: step unit must be dps or deg" % where)
         _num(where, "step.to", st["to"], -2000, 2000)
@@ -143,13 +174,10 @@ def _check_event(where, ev, duration_s):
                 _num(where, key + "." + k, v, -lim, lim)
     if "flip" in ev and ev["flip"] not in ("roll", "pitch"):
         raise UserError("%s: flip must be roll or pitch" % where)
+    if "note" in ev and not isinstance(ev["note"], str):
+        raise UserError("%s: note must be text" % where)
     if "set" in ev:
-        if not isinstance(ev["set"], dict):
-            raise UserError("%s: set must be a table of parameter = value" % where)
-        for name, value in ev["set"].items():
-            _, err = check_value(name, value)
-            if err:
-                raise UserError("%s: %s" % (where, err))
+        _params(where + " set", ev["set"], True)
 
 
 def parse_scenario(text, origin="scenario"):
@@ -157,7 +185,14 @@ def parse_scenario(text, origin="scenario"):
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise UserError("%s is not valid TOML: %s" % (origin, exc)) from None
+    unknown = sorted(set(data) - set(_TOP_KEYS))
+    if unknown:
+        raise unknown_key(origin, unknown[0], _TOP_KEYS)
+    for key in ("name", "description", "airframe"):
+        if key in data and not isinstance(data[key], str):
+            raise UserError("%s: %s must be text" % (origin, key))
     duration = _num(origin, "duration_s", data.get("duration_s", 10.0), 0.1, 3600.0)
+    judge_from = _num(origin, "judge_from_s", data.get("judge_from_s", 0.0), 0.0, duration)
     mode = data.get("mode", "angle")
     if mode not in _MODES:
         raise UserError("%s: mode must be one of %s" % (origin, ", ".join(_MODES)))
@@ -170,12 +205,7 @@ def parse_scenario(text, origin="scenario"):
         _check_event("%s [[at]] #%d" % (origin, i + 1), ev, duration)
     events = sorted(events, key=lambda e: e["t"])
     extra = data.get("params", {})
-    if not isinstance(extra, dict):
-        raise UserError("%s: [params] must be a table" % origin)
-    for name, value in extra.items():
-        _, err = check_value(name, value)
-        if err:
-            raise UserError("%s [params]: %s" % (origin, err))
+    _params("%s [params]" % origin, extra, False)
     return {
         "name": data.get("name", origin),
         "description": data.get("description", ""),
@@ -183,7 +213,7 @@ def parse_scenario(text, origin="scenario"):
         "mode": mode,
         "events": events,
         "params": extra,
-        "judge_from_s": float(data.get("judge_from_s", 0.0)),
+        "judge_from_s": judge_from,
         "airframe": data.get("airframe"),
     }
 
