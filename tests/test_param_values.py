@@ -259,3 +259,34 @@ def test_hoverfly_sim_over_tcp_answers_the_lines_that_killed_it_and_keeps_runnin
         server.stop()
         th.join(5)
     assert not th.is_alive()
+
+
+def test_check_never_raises_under_micropython():
+    from test_micropython import MICROPYTHON, run_micropython
+
+    if MICROPYTHON is None:
+        return
+    code = """
+from hoverfly.core.params import PARAMS, ALIASES, check, Params
+values = (float("inf"), float("-inf"), float("nan"), 1e308, -1e308, 10 ** 400, -(10 ** 400), "inf", "nan", "1e308",
+          "1e400", "9" * 400, "", " 12 ", "0x10", None, b"12", [1], {"a": 1}, (1, 2), True, 3, 3.5, "hexx", "DROP")
+names = [r[0] for r in PARAMS] + [a for a in ALIASES] + ["p_rol", "", None, 7]
+ok = bad = 0
+for n in names:
+    for v in values:
+        key, got, err = check(n, v)
+        if err is None:
+            ok += 1
+        else:
+            assert "\\n" not in err
+            bad += 1
+p = Params()
+assert p.set("failsafe_procedure", "drop") is None and p.get("fs_procedure") == "drop"
+assert p.set("p_roll", float("inf")) is not None and p.get("p_roll") == 45
+p.latch_boot()
+assert p.set("mixer_type", "hexx") is None and p.get("mixer_type") == "quadx" and p.pending["mixer_type"] == "hexx"
+print("checked", ok, bad)
+"""
+    res = run_micropython(code, heap="4m", timeout=300)
+    assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
+    assert res.stdout.startswith("checked")
