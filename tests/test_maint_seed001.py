@@ -242,7 +242,7 @@ def _rp2_body(frames, t0_s=1.0, step_s=0.05, extra=""):
     lines = ["maint_frames = %r" % [f.hex() for f in frames]]
     lines.append("def _send(i):\n    return lambda w: machine.uart(0).inject(bytes.fromhex(maint_frames[i]))")
     lines.append("for _i in range(len(maint_frames)):\n    world.at(%r + %r * _i, _send(_i))" % (t0_s, step_s))
-    lines.append("def extra(flight):\n    r = {'tx': bytes(machine.uart(0).tx).hex(), 'imu_type': flight.params.get("
+    lines.append("def extra(flight):\n    r = {'tx': bytes(machine.uart(0).tx).hex(), 'imu_type': flight.params.stored("
                  "'imu_type')}\n%s    return r" % extra)
     return "\n".join(lines) + "\n"
 

@@ -109,8 +109,8 @@ def test_supported_commands_are_carried_out(srv, cmd):
         assert p.get("motor_enable") == 0xFE and (p.get("motor1_min_us"), p.get("motor1_max_us")) == (1100, 1900)
     elif cmd == 12:
         assert (p.get("ab_thr_alpha"), p.get("ab_thr_beta")) == (0.5, 0.25)
-    elif cmd == 21:
-        assert p.get("imu_type") == "bno055"
+    elif cmd == 21:  # a reboot parameter: stored (and saved), the running flight keeps its boot value
+        assert p.stored("imu_type") == "bno055" and p.get("imu_type") == "mpu6050"
     elif cmd == 25:
         assert (p.get("thr_descend_us"), p.get("thr_hover_us"), p.get("thr_climb_us")) == (1300, 1500, 1700)
     elif cmd == 17:
