@@ -9,7 +9,13 @@ from test_fixedrate import Lcg  # the same deterministic numbers on every port
 
 from hoverfly.compat import IS_MICROPYTHON
 from hoverfly.core import failsafe
-from hoverfly.core.failsafe import FAULT_IMU_FROZEN, FAULT_IMU_SATURATED, FAULT_NONE, FaultWatch
+from hoverfly.core.failsafe import (
+    FAULT_IMU_FROZEN,
+    FAULT_IMU_NONFINITE,
+    FAULT_IMU_SATURATED,
+    FAULT_NONE,
+    FaultWatch,
+)
 
 
 def _samples():
@@ -29,7 +35,9 @@ def _samples():
             a = [0.0, 0.0, -9.8]
         elif phase == 5:
             g = [0.0, 0.0, 0.0]
-            a = [0.0, -151.0 if k % 3 else float("inf"), -9.8]
+            a = [0.0, -151.0 if k % 3 else float("inf"), -9.8]  # an infinity: not finite at once
+            if k % 7 == 0:
+                g[k % 3] = float("nan")  # a NaN: not finite at once
         elif phase == 6:
             g = [rnd.span(40.0) for _ in range(3)]  # now and then past the limit
             a = [rnd.span(160.0) for _ in range(3)]
@@ -58,7 +66,7 @@ def test_the_twins_give_the_same_faults():
         if k == 310:
             chosen.reset_imu()
             python.reset_imu()
-    assert seen == {FAULT_NONE, FAULT_IMU_FROZEN, FAULT_IMU_SATURATED}
+    assert seen == {FAULT_NONE, FAULT_IMU_FROZEN, FAULT_IMU_SATURATED, FAULT_IMU_NONFINITE}
 
 
 def test_micropython_picks_the_viper_twin_and_cpython_the_python_one():

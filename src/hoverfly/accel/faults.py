@@ -10,6 +10,8 @@ the "f" arrays, or the pass record's float views), and so are the limits:
 - Saturated: |value| above the limit, decided on the magnitude bits (the sign cleared): for finite
   floats and infinity that orders as the values do; a NaN (magnitude above +inf's bits) is not
   saturated, as `nan > limit` is False in the Python twin. 34.0 is 0x42080000 and 150.0 is 0x43160000.
+- Not finite: magnitude bits at or above +inf's (an infinity or a NaN): fault 5 (FAULT_IMU_NONFINITE) from
+  this check on, before frozen and saturated (the counts still run, as the Python twin's).
 - The counts (same, saturated) and the last words live in the FaultWatch's `_imu_st` (array "i", 8):
   words 0..5 the last bits, 6 the frozen count, 7 the saturated count; they stop at 2**20 (the Python
   twin's grow on, and are only ever compared with _IMU_BAD_CHECKS, 10). No constant here reaches 2**30,
@@ -39,6 +41,7 @@ def check_imu(self, gyro_raw_rad_s, accel_raw_m_s2) -> int:
     a_sat <<= 16
     same = 1
     sat = 0
+    bad = 0
     i = 0
     while i < 3:
         gb = g[i]
@@ -50,9 +53,13 @@ def check_imu(self, gyro_raw_rad_s, accel_raw_m_s2) -> int:
         m = gb & low31
         if m > g_sat and m <= inf:
             sat = 1
+        if m >= inf:
+            bad = 1
         m = ab & low31
         if m > a_sat and m <= inf:
             sat = 1
+        if m >= inf:
+            bad = 1
         i += 1
     n = int(st[6])
     if same:
@@ -70,7 +77,9 @@ def check_imu(self, gyro_raw_rad_s, accel_raw_m_s2) -> int:
         n = 0
     st[7] = n
     fault = 0
-    if frozen >= 10:  # _IMU_BAD_CHECKS
+    if bad:
+        fault = 5  # FAULT_IMU_NONFINITE
+    elif frozen >= 10:  # _IMU_BAD_CHECKS
         fault = 1  # FAULT_IMU_FROZEN
     elif n >= 10:
         fault = 2  # FAULT_IMU_SATURATED

@@ -10,9 +10,14 @@ Arm sources:
 - the pilot's arm switch (`arm_source` = range: AUX `arm_ch` inside arm_min_us..arm_max_us;
   seed001: channel `arm_ch` above 1500 µs, seed 001's rule). The switch arms on its rising
   edge only when no reason is set; a switch found on at boot, or on when arming was refused,
-  must be toggled (ARM_SWITCH);
+  must be toggled (ARM_SWITCH), and so must one that reads on after a configuration change
+  (`config_changed`: Betaflight's rule, a switch moved under by a new ARM range must be seen off first);
 - the autopilot over MSP (seed 004), through `try_arm` with the autopilot's own throttle,
   only when the enabling procedure allows it (core/autopilot.py decides).
+An arm request meets the reasons as they stand at that frame: on the switch's rising edge (and
+in try_arm) `on_reasons` lets the flight work them out again first (adding to the slow task's, never
+clearing one), so a throttle raised in the same frame as the switch is refused (THROTTLE), not met by
+the slow task's flags of up to 10 ms ago.
 Seed 000's rules hold for every source: throttle must be low to arm, and the switch must read
 "disarm" on `disarm_frames` consecutive frames before a disarm, so one bad frame cannot drop
 a flying craft (the receiver keeps the last good values on an invalid frame).
@@ -144,7 +149,10 @@ class Arming:
         self.armed_at_us = 0
         self.boot_us = 0
         self.gate = None  # an object with pilot_may_arm() (the autopilot): False = the switch may not arm
-        self.on_disarm = None  # called with now_us right after a disarm (Flight works the reasons out again)
+        # Called with (now_us, request) right after a disarm (request False) and on an arm request before it is
+        # decided (True): Flight works the reasons out again. (One hook, not two: the pass reads `armed` in this
+        # table, 16 of 17 slots.)
+        self.on_reasons = None
         self._switch_was_on = False
         self._need_toggle = True  # until the switch has been seen off once
         self._disarm_frames = 0
@@ -158,6 +166,13 @@ class Arming:
         self.disarm_frames_needed = params.get("disarm_frames")
         self.boot_grace_us = params.get("boot_grace_ms") * 1000
         self.source = params.get("arm_source")
+
+    def config_changed(self):
+        """Parameters, mode ranges or a session changed: SAFETY: a switch that reads on now (perhaps only because
+        its range moved under it) must be seen off before it arms. A switch that is off loses nothing: its
+        next frame clears this again."""
+        if not self.armed:
+            self._need_toggle = True
 
     def set_flag(self, bit, on):
         if on:
@@ -196,6 +211,13 @@ class Arming:
                 self._switch_was_on = True
                 if self._need_toggle:
                     return
+                req = self.on_reasons
+                if req is not None:
+                    # SAFETY: the reasons as they stand at this frame (the slow task's may be 10 ms old);
+                    # a configuration change it finds sets _need_toggle.
+                    req(now_us, True)
+                    if self._need_toggle:
+                        return
                 gate = self.gate
                 if gate is not None and not gate.pilot_may_arm():
                     # Seed 004: in autopilot mode the switch grants the autopilot its privilege
@@ -222,6 +244,8 @@ class Arming:
         ARM_SWITCH never applies: it is the switch's own toggle rule."""
         if self.armed:
             return 0
+        if self.on_reasons is not None:
+            self.on_reasons(now_us, True)  # SAFETY: the reasons as they stand now, as for the switch
         blocked = self.flags & ~((1 << ARM_SWITCH) | ignore)
         if blocked:
             self.events.record(now_us, EV_ARMING_BLOCKED, first_reason(blocked))
@@ -246,5 +270,5 @@ class Arming:
             if reason == DISARM_SWITCH:
                 self._need_toggle = False
             self.events.record(now_us, EV_DISARMED, reason)
-            if self.on_disarm is not None:
-                self.on_disarm(now_us)
+            if self.on_reasons is not None:
+                self.on_reasons(now_us, False)

@@ -318,6 +318,9 @@ class CliServer:
         if bit is not None:
             names = bit.names()
             out.append("Built-in test: %s" % (", ".join(names) if names else "pass"))
+        errs = getattr(f, "loop_errors_line", None)  # what the loop's boundaries caught (Flight)
+        if errs is not None:
+            out.append(errs())
         st = self.storage
         if st is not None:
             out.append("Storage: %s, sequence %d, slot %d%s" % (STATUS_NAMES[st.status], st.seq, st.slot,

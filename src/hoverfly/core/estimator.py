@@ -92,7 +92,7 @@ class GyroCalibration:
         lim = self._limit_rad_s
         for i in range(3):
             d = gyro_rad_s[i] - self._first[i]
-            if d > lim or d < -lim:
+            if not (-lim <= d <= lim):  # NaN too (a NaN or an infinity makes d NaN): no bias from them
                 self._count = 0
                 self.restarts += 1
                 return False

@@ -216,7 +216,8 @@ FAULT_IMU_FROZEN = const(1)
 FAULT_IMU_SATURATED = const(2)
 FAULT_CRASH = const(3)
 FAULT_LOAD = const(4)
-FAULT_NAMES = ("none", "imu_frozen", "imu_saturated", "crash", "load")
+FAULT_IMU_NONFINITE = const(5)  # a NaN or an infinity: never a measurement, a fault from the first check
+FAULT_NAMES = ("none", "imu_frozen", "imu_saturated", "crash", "load", "imu_nonfinite")
 
 # A gyro reading this close to full scale counts as saturated (2000 °/s parts, the common range).
 _GYRO_SAT_RAD_S = 34.0
@@ -247,6 +248,7 @@ class FaultWatch:
         self.same_checks = 0
         self.sat_checks = 0
         self.imu_fault = FAULT_NONE
+        self.fault_before = FAULT_NONE  # the flight's IMU verdict at its last check (Flight.task_arming)
         self.crash_since_us = None
         self.overloaded = False
         self.storm_since_us = None
@@ -268,11 +270,13 @@ class FaultWatch:
         self.imu_fault = FAULT_NONE
 
     def check_imu(self, gyro_raw_rad_s, accel_raw_m_s2):
-        """Slow pass with a fresh sample: frozen (bit-identical six values) or saturated. On MicroPython
-        the viper twin (accel/faults.py `check_imu`) stands in for this method; `check_imu_python` keeps it."""
+        """Slow pass with a fresh sample: not finite (a NaN or an infinity: at once), frozen (bit-identical six
+        values) or saturated (an infinity counts there too). On MicroPython the viper twin (accel/faults.py
+        `check_imu`) stands in for this method; `check_imu_python` keeps it."""
         last = self.last
         same = True
         sat = False
+        bad = False
         for i in range(3):
             g = gyro_raw_rad_s[i]
             a = accel_raw_m_s2[i]
@@ -282,9 +286,13 @@ class FaultWatch:
             last[3 + i] = a
             if g > _GYRO_SAT_RAD_S or g < _GYRO_SAT_NEG or a > _ACCEL_SAT_M_S2 or a < _ACCEL_SAT_NEG:
                 sat = True
+            if g - g != 0.0 or a - a != 0.0:  # NaN, and inf - inf is NaN
+                bad = True
         self.same_checks = self.same_checks + 1 if same else 0
         self.sat_checks = self.sat_checks + 1 if sat else 0
-        if self.same_checks >= _IMU_BAD_CHECKS:
+        if bad:
+            self.imu_fault = FAULT_IMU_NONFINITE
+        elif self.same_checks >= _IMU_BAD_CHECKS:
             self.imu_fault = FAULT_IMU_FROZEN
         elif self.sat_checks >= _IMU_BAD_CHECKS:
             self.imu_fault = FAULT_IMU_SATURATED

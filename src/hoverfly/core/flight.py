@@ -40,6 +40,7 @@ from hoverfly.core.events import (
 from hoverfly.core.failsafe import (
     CAUSE_NO_FRAMES,
     CAUSE_SWITCH,
+    FAULT_IMU_NONFINITE,
     FAULT_NONE,
     IDLE,
     PROC_DROP,
@@ -108,10 +109,16 @@ class Flight:
         self.autopilot = Autopilot(self.events)
         self.autopilot.pilot_channels = self.signals.rc_channels_us
         self.arming.gate = self.autopilot  # in autopilot mode the pilot's switch does not arm
-        self.arming.on_disarm = self._flags_on_disarm  # the disable reasons again, the moment it disarms
+        # The disable reasons again the moment it disarms, and at an arm request as they stand at that frame.
+        self.arming.on_reasons = self._reasons_now
         self._pilot_only = True  # command()'s short way (_who_flies)
         self.bit = BuiltInTest()
         self.config_session = 0  # 1 CLI, 2 MSP configurator, 4 maintenance: any set blocks arming
+        # params.changed and config_session as _config_check saw them last: a change of either since is a
+        # configuration change (arming's toggle rule). (Few new attributes here: the pass reads this table,
+        # and past 77 of its 97 slots compat.attr_room grows it, which costs the pass ~3k instructions.)
+        self._config_seen = [-1, 0]
+        self._arming_broken = False  # the arming task raised on its last run (_task_failed): BIT blocks arming
         self._arming_us = 0
         self._crash_latched = False
         self._vbat_min_cell_v = 3.3
@@ -157,6 +164,7 @@ class Flight:
         self.scheduler.add("arming", 100, self.task_arming)
         self.scheduler.add("battery", 50, self.task_battery)
         self.scheduler.add("led", 10, self.task_led)
+        self.scheduler.on_error = self._task_failed
         # Flight log: called last in every pass while a sink is open (not a task: a task due every
         # pass costs more to dispatch than the logging it runs; bench/log_loop.py).
         self.logger = Logger(self)
@@ -540,8 +548,11 @@ class Flight:
     def _send_telemetry(self, now_us, rx):
         s = self.signals
         arming = self.arming
-        rx.send_telemetry(now_us, self.board, s, s.setpoint.mode, self.airmode_enabled, self.failsafe.state != IDLE,
-                          arming.armed, arming.flags)
+        try:
+            rx.send_telemetry(now_us, self.board, s, s.setpoint.mode, self.airmode_enabled,
+                              self.failsafe.state != IDLE, arming.armed, arming.flags)
+        except Exception as exc:  # noqa: BLE001 - SAFETY: an encoder's or a port's bug ends the frame, not the loop
+            self.scheduler.caught("telemetry", exc)
 
     def task_arming(self, now_us):
         """Faults, built-in test, arming reasons, autopilot timeout, failsafe stages (100 Hz)."""
@@ -556,16 +567,28 @@ class Flight:
         if dt_s < 0.0 or dt_s > 0.1:
             dt_s = 0.01
         armed = arming.armed
-        # IMU: no new samples for imu_stale_ms, or new samples frozen or saturated
+        # IMU: no new samples for imu_stale_ms, or new samples frozen, saturated or not finite
         imu_ok = ticks_diff(now_us, self.imu_us) <= self._imu_stale_us
         fault = fw.check_imu(s.gyro_raw_rad_s, s.accel_raw_m_s2) if imu_ok else FAULT_NONE
+        if fault == FAULT_NONE and imu_ok and not (self._fixed_imu_on and self._att_fixed_now) \
+                and not self._state_finite():
+            fault = FAULT_IMU_NONFINITE  # a bad sample between two checks, held in the filters' state
         if fault != FAULT_NONE:
             imu_ok = False
         if self.imu_ok and not imu_ok:
             self.events.record(now_us, EV_IMU_FAULT, fault)
             # SAFETY: no attitude without the IMU: nothing can fly or land it, so stop the motors.
             arming.disarm(now_us, DISARM_IMU)
+        if fault == FAULT_IMU_NONFINITE or (imu_ok and not self.imu_ok and fw.fault_before != FAULT_NONE):
+            # A NaN or inf left in the filters, estimator or controller would stay there: they start again
+            # (while the values are not finite, and once the fault clears), disarmed by then.
+            self._restart_estimation()
+        fw.fault_before = fault
         self.imu_ok = imu_ok
+        seen = self._config_seen
+        if self.params.changed != seen[0] or self.config_session != seen[1]:
+            self._config_check()
+        self.bit.tasks_ok = self.scheduler.errors == 0  # every boundary counts there (Scheduler.caught, Logger)
         # loop rate: a storm of overruns while armed disarms; any overrun blocks arming (LOAD)
         sched = self.scheduler
         if fw.check_load(now_us, sched.stats[PS_PASSES], sched.overruns, armed):
@@ -584,7 +607,7 @@ class Flight:
         self.bit.update(imu_ok, self.rx_ok, not self.overloaded, battery_ok, self.calibration.calibrated)
         if not arming.armed:
             # As Betaflight: the disable reasons are worked out only while disarmed (armed, nothing reads
-            # them to decide anything), and at once on a disarm (Arming.on_disarm), so an arm request right
+            # them to decide anything), and at once on a disarm (Arming.on_reasons), so an arm request right
             # after a disarm never meets the reasons of before the arming.
             self._arming_flags(now_us, throttle_low, battery_ok)
         if ap.state == AP_ENABLED:  # Autopilot.update's own first test: only an enabled autopilot can go silent
@@ -604,6 +627,88 @@ class Flight:
         self._who_flies()
         if self.params.changed != self._configured_at and not arming.armed:
             self.configure()
+        self._arming_broken = False  # ran through
+
+    def _state_finite(self):
+        """The float stages' state is finite: the filtered gyro (where the float filters run) and the attitude
+        (where the float estimator runs). The fixed-point stages take a NaN as 0 and clamp an inf, so where they
+        run there is nothing to look at (and no float object made on MicroPython)."""
+        s = self.signals
+        v = 0.0
+        if not self._fixed_imu_on:
+            g = s.gyro_rad_s
+            v = g[0] + g[1] + g[2]
+        if not self._att_fixed_now:
+            q = s.attitude.q
+            v += q[0] + q[1] + q[2] + q[3]
+        return v - v == 0.0  # NaN and inf (inf - inf is NaN) both fail
+
+    def _restart_estimation(self):
+        """The filters, the estimator and the controller start again from the next sample (an IMU fault with
+        non-finite values, and its end): the fixed stages give their state back, the float ones are reset, the
+        attitude is levelled from the accelerometer again, and configure() hands the clean state back."""
+        self.fixed_imu.release()
+        self.fixed_att.release()
+        self.fixed.release()
+        gf = self.gyro_filter
+        for i in range(3):
+            gf.lpf1[i].reset()
+            gf.lpf2[i].reset()
+            gf.notch[i].reset()
+        self.mahony.reset(self.signals.attitude)
+        self.controller.reset()
+        self._first_imu = True
+        self.configure()  # the accelerometer filter's reset, the fixed stages from the clean float state
+
+    def _config_check(self):
+        """Parameters, mode ranges or sessions changed since the last look (any surface: CLI, MSP, maintenance,
+        storage; two int compares): the arm switch must be toggled (Arming.config_changed). True if they did."""
+        changed = self.params.changed
+        session = self.config_session
+        seen = self._config_seen
+        if changed == seen[0] and session == seen[1]:
+            return False
+        seen[0] = changed
+        seen[1] = session
+        self.arming.config_changed()
+        return True
+
+    def _arm_request(self, now_us):
+        """Arming.on_reasons(request=True): an arm request (the switch's rising edge, the autopilot's try_arm) meets the
+        reasons as they stand at this frame, not the 100 Hz task's of up to 10 ms ago (seed 000's throttle rule
+        when throttle and switch move together); a configuration change not yet looked at, or not yet applied
+        (configure runs in the 100 Hz task), needs the switch toggled. The reasons the 100 Hz task found stay:
+        this only adds (a link restored by this very frame still counts as lost until the task has seen it)."""
+        arming = self.arming
+        before = arming.flags
+        self._config_check()
+        if self.params.changed != self._configured_at:
+            arming.config_changed()
+        self._flags_on_disarm(now_us)
+        arming.flags |= before
+
+    def _task_failed(self, task, exc):
+        """Scheduler.on_error: a task raised. SAFETY: the arming task's reasons are not to be trusted after it
+        raised part-way: an arm request meets BIT until it runs through again."""
+        if task.name == "arming":
+            self._arming_broken = True
+            self.arming.flags |= 1 << BIT_FAILED
+
+    def loop_errors(self):
+        """Calls the loop's boundaries caught: slow tasks (links included), receiver telemetry, the log."""
+        return self.scheduler.errors
+
+    def loop_errors_line(self):
+        """One status line: what raised at the loop's boundaries, and the last error of each."""
+        if self.loop_errors() == 0:
+            return "Loop errors: none"
+        parts = []
+        line = self.scheduler.error_line()  # the tasks, and the receiver telemetry
+        if line:
+            parts.append(line)
+        if self.logger.errors:
+            parts.append("log %d, stopped (%s)" % (self.logger.errors, self.logger.error_text()))
+        return "Loop errors: " + "; ".join(parts)
 
     def _arming_flags(self, now_us, throttle_low, battery_ok):
         """The arming-disable reasons now (Arming.check, with the reasons of the stages it does not see)."""
@@ -612,7 +717,7 @@ class Flight:
             more |= 1 << MOTOR_TEST
         if not battery_ok:
             more |= 1 << BATTERY_CRITICAL
-        if self.bit.blocks_arming():
+        if self.bit.blocks_arming() or self._arming_broken:
             more |= 1 << BIT_FAILED
         if self.failsafe.state != IDLE:
             more |= 1 << FAILSAFE
@@ -625,8 +730,16 @@ class Flight:
         self.arming.check(now_us, self.imu_ok, self.calibration.calibrated, self.rx_ok, throttle_low,
                           self.signals.attitude.cos_tilt, self.overloaded, more)
 
+    def _reasons_now(self, now_us, request):
+        """Arming.on_reasons: after a disarm, and at an arm request before it is decided."""
+        if request:
+            self._arm_request(now_us)
+        else:
+            self._flags_on_disarm(now_us)
+
     def _flags_on_disarm(self, now_us):
-        """Arming.on_disarm: the reasons from the state at the disarm (the 100 Hz task's are from before it)."""
+        """Arming.on_reasons after a disarm: the reasons from the state at the disarm (the 100 Hz task's are from
+        before it)."""
         ap = self.autopilot
         throttle_low = ap.throttle_low() if ap.state == AP_ENABLED else self.rc.throttle_low()
         self._arming_flags(now_us, throttle_low, self._battery_ok(self.signals.battery_v))

@@ -306,6 +306,8 @@ class Logger:
         self.events = 0
         self.param_changes = 0
         self.bytes = 0
+        self.errors = 0  # logger calls from the pass that raised: each one stopped the log (_failed)
+        self.error = None  # the last exception they raised
         self.sys_name = "hoverfly"
         self._fmt = frame_format()
         self._srcs = ()
@@ -554,45 +556,50 @@ class Logger:
         rate it counts passes down (in µs of the nominal period) and logs the due ones. Logging
         every pass into the pass record (CPython), the first pass installs `_fast_update` in its
         place."""
-        f = self.flight
-        # Log time: the passes' own tick differences (Flight.step's pass_dt_us), summed in a plain
-        # int: one add here instead of another ticks_diff (a Python function on CPython).
-        t = self._t64 + f.pass_dt_us
-        self._t64 = t
-        if not self._every_pass:
-            left = self._left_us - self._pass_us
-            if left > 0:
-                self._left_us = left
-                return
-            self._left_us = left + self._period_us
-        if self.writer is None:
-            self._begin(now_us)
-            t = self._t64
-        sp, c, mixer, rc, params = self._ctx
-        i = self._staged
-        rec = self._rec
-        if rec is not None:
-            i_active = f.i_active
-            struct.pack_into(_SCALARS, rec, self._at_thrust, -sp.throttle_norm, not i_active, self._pid_header, t,
-                             c.tpa, i_active, f.airmode_active, mixer.saturated, sp.mode)
-            if (f.imu_us == now_us) is not self._imu_fresh:
-                self._imu_fresh = not self._imu_fresh
-                self._record_constants()
-            n = self._fast_n
-            self._stage[i * n : i * n + n] = rec
-        else:
-            self._pack(i * self._fast_n, t, now_us, sp, c, mixer)
-        i += 1
-        self._staged = i
-        if rc.frames != self._rc_seen:
-            self._rc_seen = rc.frames
-            self._stage_rc(t)
-        if i >= self._batch_n:
-            self._batch_full(now_us, t)
-        if params.changed != self._par_seen:
-            self._log_param_changes(t)
-        if rec is not None and self._every_pass and self._imu_fresh:
-            self._use_fast_update(True)  # last: the closure starts from this pass's state
+        # SAFETY: whatever the logging raises ends the log (_failed), never the pass that called it. (This frame
+        # is on the heap already, so the try costs no frame of its own.)
+        try:
+            f = self.flight
+            # Log time: the passes' own tick differences (Flight.step's pass_dt_us), summed in a plain
+            # int: one add here instead of another ticks_diff (a Python function on CPython).
+            t = self._t64 + f.pass_dt_us
+            self._t64 = t
+            if not self._every_pass:
+                left = self._left_us - self._pass_us
+                if left > 0:
+                    self._left_us = left
+                    return
+                self._left_us = left + self._period_us
+            if self.writer is None:
+                self._begin(now_us)
+                t = self._t64
+            sp, c, mixer, rc, params = self._ctx
+            i = self._staged
+            rec = self._rec
+            if rec is not None:
+                i_active = f.i_active
+                struct.pack_into(_SCALARS, rec, self._at_thrust, -sp.throttle_norm, not i_active, self._pid_header, t,
+                                 c.tpa, i_active, f.airmode_active, mixer.saturated, sp.mode)
+                if (f.imu_us == now_us) is not self._imu_fresh:
+                    self._imu_fresh = not self._imu_fresh
+                    self._record_constants()
+                n = self._fast_n
+                self._stage[i * n : i * n + n] = rec
+            else:
+                self._pack(i * self._fast_n, t, now_us, sp, c, mixer)
+            i += 1
+            self._staged = i
+            if rc.frames != self._rc_seen:
+                self._rc_seen = rc.frames
+                self._stage_rc(t)
+            if i >= self._batch_n:
+                self._batch_full(now_us, t)
+            if params.changed != self._par_seen:
+                self._log_param_changes(t)
+            if rec is not None and self._every_pass and self._imu_fresh:
+                self._use_fast_update(True)  # last: the closure starts from this pass's state
+        except Exception as exc:  # noqa: BLE001
+            self._failed(exc)
 
     def _use_fast_update(self, on):
         """Install (on) or remove the every-pass record-path update as this logger's `update`. While
@@ -619,6 +626,39 @@ class Logger:
         f.log_pass = self.update if self.active else None
         f.log_rc = self._fast_rc if self._fast and self.active else None
         f.logging_changed()
+
+    def _failed(self, exc):
+        """A logger call from the pass raised exc: counted and kept, and the log stops here (its sink is dropped
+        without a last write, which could raise again; the sink's owner still closes it). SAFETY: the flight's
+        calls into the logger are taken away first, so the pass that raised is the last one to log."""
+        self.errors += 1
+        self.error = exc
+        f = self.flight
+        try:
+            f.scheduler.errors += 1  # the loop's count of what its boundaries caught (the built-in test's)
+        except Exception:  # noqa: BLE001, S110 - a flight without one
+            pass
+        f.log_pass = None
+        f.log_rc = None
+        self.sink = None
+        self.writer = None
+        self.active = False
+        try:
+            if self._fast:
+                self._fast = False
+                self.flight.params.on_change = None
+                del self.update
+        except Exception:  # noqa: BLE001, S110 - already stopping: nothing more to undo
+            pass
+        try:
+            f.logging_changed()
+        except Exception:  # noqa: BLE001, S110
+            pass
+
+    def error_text(self):
+        """The last exception a logger call raised, one line ("" if none)."""
+        e = self.error
+        return "" if e is None else "%s: %s" % (type(e).__name__, e)
 
     def full_pass_next(self):
         """The next logged pass takes update()'s full path, which looks at the parameters and the
@@ -655,17 +695,20 @@ class Logger:
 
         def update(now_us):
             nonlocal t, i
-            t += f.pass_dt_us
-            i_active = f.i_active
-            _pack_into(_SCALARS, buf, at_thrust, -sp.throttle_norm, not i_active, pid_header, t, c.tpa, i_active,
-                       f.airmode_active, mixer.saturated, sp.mode)
-            stage[slots[i]] = buf
-            i += 1
-            if i >= batch_n:
-                lg._t64 = t
-                lg._staged = i
-                lg._batch_full(now_us, t)
-                i = lg._staged
+            try:  # SAFETY: as update()'s: the log ends, the pass goes on
+                t += f.pass_dt_us
+                i_active = f.i_active
+                _pack_into(_SCALARS, buf, at_thrust, -sp.throttle_norm, not i_active, pid_header, t, c.tpa,
+                           i_active, f.airmode_active, mixer.saturated, sp.mode)
+                stage[slots[i]] = buf
+                i += 1
+                if i >= batch_n:
+                    lg._t64 = t
+                    lg._staged = i
+                    lg._batch_full(now_us, t)
+                    i = lg._staged
+            except Exception as exc:  # noqa: BLE001
+                lg._failed(exc)
 
         # input_rc for a new receiver frame (Flight.task_rx, earlier in the pass: this pass's time is
         # t + pass_dt_us). From a receiver that reports its link the same pack as _stage_rc's.
@@ -677,21 +720,27 @@ class Logger:
             ch = self._rc_ch
 
             def rc_frame():
-                tt = t + f.pass_dt_us
-                lq = receiver.link_quality_pct
-                if lq > 100:
-                    lq = 100
-                elif lq < 0:
-                    lq = 0
-                off = lg._rc_off
-                _pack_into(_RC_PACK, rc_stage, off, rc_header, tt, tt, lq, receiver.errors & 0xFFFF,
-                           receiver.frames & 0xFFFF, _raw(ch), _RC_CHANNELS, receiver.rx_failsafe, not f.rx_ok, 0, lq,
-                           receiver.rssi_dbm)
-                lg._rc_off = off + rc_n
+                try:  # SAFETY: as update()'s: the log ends, the receiver task goes on
+                    tt = t + f.pass_dt_us
+                    lq = receiver.link_quality_pct
+                    if lq > 100:
+                        lq = 100
+                    elif lq < 0:
+                        lq = 0
+                    off = lg._rc_off
+                    _pack_into(_RC_PACK, rc_stage, off, rc_header, tt, tt, lq, receiver.errors & 0xFFFF,
+                               receiver.frames & 0xFFFF, _raw(ch), _RC_CHANNELS, receiver.rx_failsafe, not f.rx_ok,
+                               0, lq, receiver.rssi_dbm)
+                    lg._rc_off = off + rc_n
+                except Exception as exc:  # noqa: BLE001
+                    lg._failed(exc)
         else:
 
             def rc_frame():
-                lg._stage_rc(t + f.pass_dt_us)
+                try:
+                    lg._stage_rc(t + f.pass_dt_us)
+                except Exception as exc:  # noqa: BLE001
+                    lg._failed(exc)
 
         def sync():
             lg._t64 = t

@@ -10,10 +10,19 @@ loop period: at 1 kHz the receiver's frame and the 100 Hz arming and failsafe ta
 jobs, never share a pass, so the longest pass is one of them and the gyro/PID loop, not both (as
 Betaflight's scheduler runs a task only where it fits). A loop slower than the receiver's rate still
 runs everything, a pass late. Tasks run in the order they were added, the fastest first.
+Each task call is guarded: a task that raises (a link's request handler, a telemetry encoder, a
+slow check) is counted against its task with the exception it raised, and the pass and the other
+tasks go on (no link can stop the flight loop). The guard is at the task's dispatch, not in the pass,
+and in a function of its own (`_call`): a `try` takes 3 words of a frame and an `except ... as` 6, so
+Scheduler.run's or _run's frame would leave the C stack (bench/frame_sizes.py) at every task call. The
+guard's frame is at 11 words with a bare `except`: the exception object comes from sys.exc_info where
+the port has it (CPython, the unix VM), else from a wrapper put around a task once it has raised, until
+it raises again (`_Capture`: only a failing task pays for its frame).
 The scheduler also keeps the pass statistics: cycle time, jitter against the nominal
 period, and overruns. `HeapWatch` tells a board's loop when to collect garbage in its slack.
 """
 
+import sys
 from array import array
 
 from hoverfly.compat import TICKS_HALF, accel_module, const, ticks_add, ticks_diff
@@ -52,6 +61,38 @@ def pass_stats(ps, cycle_us):
 _viper = accel_module("sched")
 fast_pass_stats = _viper.pass_stats if _viper is not None else pass_stats
 
+_exc_info = getattr(sys, "exc_info", None)  # MicroPython ports without it: _Capture
+
+
+def _call(t, now_us):
+    """Task t's call behind the guard: False if it raised (counted on t by Task.failed). SAFETY: whatever a
+    task raises stops here. (A bare except: this frame stays on the C stack, 11 words.)"""
+    try:
+        t.fn(now_us)
+    except Exception:  # noqa: BLE001 - any bug in a task, a link or an encoder: not the loop's end
+        t.failed()
+        return False
+    return True
+
+
+class _Capture:
+    """A failed task's next call on a port without sys.exc_info: puts the task's own function back, calls it,
+    and keeps what it raises on the task before passing it on to the guard (which wraps it again). Its frame
+    is on the heap: paid only by a task that raised on its last call."""
+
+    def __init__(self, t, fn):
+        self.t = t
+        self.fn = fn
+
+    def __call__(self, now_us):
+        t = self.t
+        t.fn = self.fn
+        try:
+            self.fn(now_us)
+        except Exception as exc:
+            t.last_error = exc
+            raise
+
 
 class Task:
     def __init__(self, name, rate_hz, fn):
@@ -61,6 +102,24 @@ class Task:
         self.fn = fn
         self.next_us = 0
         self.runs = 0
+        self.errors = 0  # calls that raised (_call caught them)
+        self.last_error = None  # the last exception it raised (formatted only when asked: error_text)
+
+    def failed(self):
+        """In _call's except: counted, and the exception kept (not formatted: a task raising at every run
+        allocates no text)."""
+        self.errors += 1
+        if _exc_info is not None:
+            self.last_error = _exc_info()[1]
+        elif not isinstance(self.fn, _Capture):
+            self.fn = _Capture(self, self.fn)  # the next failure keeps its exception
+
+    def error_text(self):
+        """The last exception this task raised, one line."""
+        e = self.last_error
+        if e is None:
+            return "not kept yet (raised once)" if self.errors else ""
+        return "%s: %s" % (type(e).__name__, e)
 
 
 class Scheduler:
@@ -72,6 +131,10 @@ class Scheduler:
         self.stats = array("i", [0] * PS_SIZE)
         self.stats[PS_PERIOD] = 1000
         self.overruns = 0
+        self.errors = 0  # calls the loop's boundaries caught: the tasks', caught()'s, the log's (Logger._failed)
+        self.failed = None  # the task that raised last
+        self.on_error = None  # called with (task, exception) after a task raised (Flight: arming's own rule)
+        self.boundaries = []  # the records of the loop's other guarded calls (caught), as Tasks never run
         self._last_us = 0
         self.next_due_us = 0  # the earliest task's next time: run() has nothing to do before it
         self._fast = None  # the task of the highest rate, checked on its own every run()
@@ -127,7 +190,8 @@ class Scheduler:
             # _run(fast, now_us) inline, on the lateness already taken: the receiver's task, every other
             # pass at 1 kHz (a period on; from now if it fell a whole period behind)
             fast.runs += 1
-            fast.fn(now_us)
+            if not _call(fast, now_us):
+                self._failed(fast)
             nxt = fast.period_us
             fast.next_us = ticks_add(fast.next_us if late < nxt else now_us, nxt)
             wait_us = self.period_us
@@ -157,13 +221,53 @@ class Scheduler:
         self._slow_due_us = soonest
 
     def _run(self, t, now_us):
-        """Run task t, then its next time: a period on, or a period from now if it fell behind."""
+        """Run task t, then its next time: a period on, or a period from now if it fell behind.
+        SAFETY: whatever the task raises stops in _call, counted against it: the pass and the other tasks
+        go on, and the task is due again a period on as if it had returned."""
         t.runs += 1
-        t.fn(now_us)
+        if not _call(t, now_us):
+            self._failed(t)
         nxt = ticks_add(t.next_us, t.period_us)
         if ticks_diff(now_us, nxt) >= 0:
             nxt = ticks_add(now_us, t.period_us)
         t.next_us = nxt
+
+    def _failed(self, t):
+        """Task t raised (counted on it by _call): the scheduler's count, and on_error."""
+        self.errors += 1
+        self.failed = t
+        cb = self.on_error
+        if cb is not None:
+            try:
+                cb(t, t.last_error)
+            except Exception:  # noqa: BLE001, S110 - the handler's own bug must not end the loop either
+                pass
+
+    def caught(self, name, exc):
+        """A guarded call outside the task table (the receiver telemetry's) raised exc: counted under name."""
+        for b in self.boundaries:
+            if b.name == name:
+                break
+        else:
+            b = Task(name, 1, None)
+            self.boundaries.append(b)
+        b.errors += 1
+        b.last_error = exc
+        self.errors += 1
+
+    def boundary_errors(self):
+        n = 0
+        for b in self.boundaries:
+            n += b.errors
+        return n
+
+    def error_line(self):
+        """The tasks and other guarded calls that raised, with their counts and last errors ("" if none)."""
+        parts = []
+        for t in self.tasks + self.boundaries:
+            if t.errors:
+                parts.append("%s %d (last %s)" % (t.name, t.errors, t.error_text()))
+        return ", ".join(parts)
 
     def stats_reset(self):
         ps = self.stats

@@ -17,8 +17,11 @@ Bad input never spins a motor: a missing or unsupported IMU, an IMU bus error in
 or a silent receiver each set a board fault (blink code on the LED, a status line) and
 the core refuses to arm (no IMU, no link) or disarms (IMU stale); the board stops the
 motors itself for any IMU or output fault, and its output timer disarms every line
-when the loop stops writing (the output failsafe). An exception in the loop stops the motors, prints the
-status and the exception, and returns to the REPL. MicroPython-only.
+when the loop stops writing (the output failsafe). No link can stop the loop: what a slow task (the
+configuration links, the battery, the arming task), the receiver telemetry or the log raises is caught at
+that boundary inside the flight core (core/scheduler.py, Flight, core/logger.py), counted, shown in the
+built-in test and the CLI status, and the pass goes on. An exception in the pass itself stops the motors,
+prints the status, what the boundaries caught and the exception, and returns to the REPL. MicroPython-only.
 """
 
 import gc
@@ -74,7 +77,7 @@ def main(board=None, params=None, passes=-1, on_pass=None, overrides=()):
     from hoverfly.core.flight import Flight
     from hoverfly.core.links import attach
     from hoverfly.core.params import Params
-    from hoverfly.core.storage import STATUS_NAMES, Storage
+    from hoverfly.core.storage import Storage
 
     chosen = board is not None  # a board built by the caller keeps its own IMU/receiver/motor choice
     if board is None:
@@ -95,7 +98,7 @@ def main(board=None, params=None, passes=-1, on_pass=None, overrides=()):
     else:
         _board_choices(board, params)
     board.setup(params)
-    print("hoverfly: parameters %s" % STATUS_NAMES[storage.status])
+    print("hoverfly: parameters %s" % storage.summary())  # with any stored value skipped, and why
     flight = Flight(board, params)
     flight.storage = storage
     # SAFETY: a lost parameter set (defaults in use) blocks arming through the built-in test.
@@ -114,10 +117,13 @@ def main(board=None, params=None, passes=-1, on_pass=None, overrides=()):
     except Exception as exc:  # SAFETY: whatever failed, the motors stop before anything else
         board.stop_motors()
         print(board.status_line())
+        print(flight.loop_errors_line())
         print_exception(exc)
     board.stop_rx_core1()
     board.restore_ctrl_c()  # back at the REPL, Ctrl-C must work again
     print(stats.line())
+    if flight.loop_errors():
+        print("hoverfly: " + flight.loop_errors_line())
     return flight, stats
 
 
