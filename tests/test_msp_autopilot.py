@@ -26,7 +26,7 @@ from hoverfly.core.autopilot import (
     RES_TAKEN,
     RES_WAIT,
 )
-from hoverfly.core.links import ConfigLinks
+from hoverfly.core.links import ConfigLinks, attach
 from hoverfly.protocols import msp
 from hoverfly.sim.companion import CompanionPort
 from hoverfly.sim.runner import SimRun
@@ -317,3 +317,32 @@ def test_host_msp_client_reads_the_privilege_with_names():
     st = client.autopilot()
     assert st["state_name"] == "enabled" and st["privilege_names"] == ["rc", "arm", "in_control"]
     assert st["last_reason"] is None and st["throttle_us"] == 1400
+
+
+def test_set_mode_range_moved_under_an_on_arm_switch_does_not_arm_until_it_is_toggled():
+    # given a disarmed craft whose arm switch sits at 1500 us, below the ARM range (1700..2100)
+    sc = {"name": "mode-range", "duration_s": 5.5, "mode": "angle", "params": {},
+          "events": [{"t": 0.5, "channel": {"ch": 5, "us": 1500}}, {"t": 4.0, "channel": {"ch": 5, "us": 1000}},
+                     {"t": 4.5, "channel": {"ch": 5, "us": 1500}}]}
+    run = SimRun("5inch", sc, seed=1)
+    port = CompanionPort()
+    run.board.serial = port
+    armed = {}
+
+    def hook(r):
+        k = round(r.board.sim_us / 1000)
+        if k == 100:
+            port.links = attach(r.flight)
+        if k == 2000:  # when a configurator moves the ARM range down over the switch (1300..2100)
+            port.to_fc += msp.encode_request(msp.MSP_SET_MODE_RANGE,
+                                             msp.pack_set_mode_range(0, 0, 0, msp.step_of_us(1300), 48))
+        armed[k] = r.flight.arming.armed
+
+    run.on_step = hook
+    result = run.run()
+    # then the range is taken, but the switch that became "on" by it does not arm
+    assert run.params.get("arm_min_us") == 1300
+    assert not any(armed[k] for k in range(2000, 4000))
+    # until the pilot switches it off and on again
+    arms = [e["t_s"] for e in result["events"] if e["event"] == "armed"]
+    assert len(arms) == 1 and arms[0] >= 4.5 and armed[5500]
