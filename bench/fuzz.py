@@ -895,6 +895,32 @@ def run_storm(sim, count, rng):
         out["inputs"] += 1
         if i % 50 == 49 and not sim.check("storm"):
             out["deaths"] += 1
+    # A client starts a props-off motor test and vanishes: its session (and the test) must end with
+    # the link, well before the test's own 1 s expiry.
+    ab = {"tried": 0, "spinning_seen": 0, "stopped_within_300ms": 0}
+    watch = None
+    try:
+        watch = MaintClient(sim.maint_port)
+        for _ in range(5):
+            a = connect(sim.msp_port, 2.0)
+            a.sendall(ack + motor)
+            time.sleep(0.1)
+            ab["tried"] += 1
+            v = watch.read(Monitor.MOTORS)
+            if v is not None and any(v["motor%d_signal" % i] > 1000 for i in range(1, 5)):
+                ab["spinning_seen"] += 1
+            a.close()
+            time.sleep(0.3)
+            v = watch.read(Monitor.MOTORS)
+            if v is not None and all(v["motor%d_signal" % i] <= 1000 for i in range(1, 5)):
+                ab["stopped_within_300ms"] += 1
+            time.sleep(0.2)
+    except OSError:
+        pass
+    finally:
+        if watch is not None:
+            watch.close()
+    out["abandoned_motor_tests"] = ab
     time.sleep(1.5)  # past the motor test's expiry and every partial-frame timeout
     mon = Monitor(sim, use_maint=True)
     for _ in range(3):
