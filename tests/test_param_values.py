@@ -290,3 +290,22 @@ print("checked", ok, bad)
     res = run_micropython(code, heap="4m", timeout=300)
     assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
     assert res.stdout.startswith("checked")
+
+
+def _full_distance(a, b):
+    prev = list(range(len(b) + 1))
+    for i in range(1, len(a) + 1):
+        cur = [i] + [0] * len(b)
+        for j in range(1, len(b) + 1):
+            cur[j] = min(prev[j - 1] + (a[i - 1] != b[j - 1]), prev[j] + 1, cur[j - 1] + 1)
+        prev = cur
+    return prev[len(b)]
+
+
+@settings(max_examples=500, deadline=None)
+@given(st.text("ab_cd", max_size=12), st.text("ab_cd", max_size=12), st.integers(0, 4))
+def test_the_banded_distance_is_the_edit_distance_up_to_its_limit(a, b, limit):
+    from hoverfly.core.params import _distance
+
+    full = _full_distance(a, b)
+    assert _distance(a, b, limit) == (full if full <= limit else limit + 1)

@@ -292,48 +292,70 @@ def show(value):
 
 
 def _distance(a, b, limit):
-    """Edit distance of a and b, or limit + 1 once it is certain to pass limit (error path only)."""
-    prev = list(range(len(b) + 1))
+    """Edit distance of a and b if it is at most limit, else limit + 1. Only a band of 2 * limit + 1
+    cells per row is computed, in two reused rows: the error path stays a few milliseconds on a Pico."""
+    n = len(b)
+    big = limit + 1
+    prev = [j if j <= limit else big for j in range(n + 1)]
+    cur = [big] * (n + 1)
     for i in range(1, len(a) + 1):
-        cur = [i] + [0] * len(b)
-        best = i
-        for j in range(1, len(b) + 1):
-            d = prev[j - 1] + (0 if a[i - 1] == b[j - 1] else 1)
-            if prev[j] + 1 < d:
-                d = prev[j] + 1
-            if cur[j - 1] + 1 < d:
-                d = cur[j - 1] + 1
+        lo = i - limit if i > limit else 1
+        hi = i + limit if i + limit < n else n
+        cur[0] = i if i <= limit else big
+        if lo > 1:
+            cur[lo - 1] = big
+        best = cur[0]
+        ai = a[i - 1]
+        for j in range(lo, hi + 1):
+            d = prev[j - 1] + (0 if ai == b[j - 1] else 1)
+            x = prev[j] + 1
+            if x < d:
+                d = x
+            x = cur[j - 1] + 1
+            if x < d:
+                d = x
+            if d > big:
+                d = big
             cur[j] = d
             if d < best:
                 best = d
+        if hi < n:
+            cur[hi + 1] = big
         if best > limit:
-            return limit + 1
-        prev = cur
-    return prev[len(b)]
+            return big
+        prev, cur = cur, prev
+    return prev[n] if prev[n] <= limit else big
+
+
+def _near_pass(w, candidates, limit, found, found_d):
+    for c in candidates:
+        if len(c) - len(w) > limit or len(w) - len(c) > limit:
+            continue
+        # a typo keeps the first, second or last letter: the others are not worth a distance
+        if c[0] != w[0] and c[-1] != w[-1] and (len(c) < 2 or len(w) < 2 or c[1] != w[1]):
+            continue
+        d = _distance(w, c, found_d if found_d <= limit else limit)
+        if d < found_d or (d == found_d and d <= limit and found is not None and c < found):
+            found = c
+            found_d = d
+    return found, found_d
 
 
 def nearest(word, candidates=None):
-    """The candidate (table names and aliases by default) nearest to `word` by edit distance, if it
-    is within 2 edits or a third of its length; else None. Ties go to the alphabetically first, so the
-    answer does not hang on dict order. Only on the error path: a small loop over the table."""
+    """The candidate (table names and aliases by default) nearest to `word` by edit distance, within 2
+    edits (3 for a name of 9 letters or more) and sharing its first, second or last letter; else None.
+    Ties go to the alphabetically first, so the answer does not hang on dict order. Only on the error
+    path: one pass over the table without building a list, a banded distance for the few that pass."""
     if not isinstance(word, str):
         return None
     w = word.strip().lower()
     if not w or len(w) > 40:
         return None
-    limit = 2 if len(w) < 9 else len(w) // 3
+    limit = 2 if len(w) < 9 else 3
     if candidates is None:
-        candidates = list(INDEX) + list(ALIASES)
-    found = None
-    found_d = limit + 1
-    for c in candidates:
-        if len(c) - len(w) > limit or len(w) - len(c) > limit:
-            continue
-        d = _distance(w, c, limit)
-        if d < found_d or (d == found_d and found is not None and c < found):
-            found = c
-            found_d = d
-    return found
+        found, found_d = _near_pass(w, INDEX, limit, None, limit + 1)
+        return _near_pass(w, ALIASES, limit, found, found_d)[0]
+    return _near_pass(w, candidates, limit, None, limit + 1)[0]
 
 
 def unknown_reason(name):
