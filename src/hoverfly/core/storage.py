@@ -259,9 +259,12 @@ class Storage:
         # A value the table allows but this board cannot boot with: a frame for another motor count
         # (the outputs, ESCs and, in the simulator, the airframe are built for the board's count).
         if name == "mixer_type":
+            table = MIXER_TABLES.get(value)
+            if table is None:
+                return "mixer_type = %s has no mixer table" % value
             n = getattr(self.board, "motor_count", 0)
-            if n and len(MIXER_TABLES[value]) != n:
-                return "mixer_type = %s drives %d motors, this board has %d" % (value, len(MIXER_TABLES[value]), n)
+            if n and len(table) != n:
+                return "mixer_type = %s drives %d motors, this board has %d" % (value, len(table), n)
         return None
 
     def summary(self):
