@@ -211,11 +211,11 @@ class Arming:
                 self._switch_was_on = True
                 if self._need_toggle:
                     return
-                req = self.on_reasons
-                if req is not None:
+                if self.on_reasons is not None:
                     # SAFETY: the reasons as they stand at this frame (the slow task's may be 10 ms old);
-                    # a configuration change it finds sets _need_toggle.
-                    req(now_us, True)
+                    # a configuration change it finds sets _need_toggle. (No local for the hook: this frame
+                    # stays at 11 words, on the C stack, at every frame.)
+                    self.on_reasons(now_us, True)
                     if self._need_toggle:
                         return
                 gate = self.gate
