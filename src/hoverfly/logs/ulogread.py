@@ -21,8 +21,9 @@ Reading always ends, in time bounded by the file's size (issue 30: pyulog 1.3 hu
 - Whatever else pyulog's recovery does, `_BoundedFile` counts its reads and seeks (a 64 KB
   read as two calls: the copy costs about as much as a call) and past CALLS_PER_BYTE per byte
   of the file (plus CALLS_FLOOR) answers end-of-file, so pyulog ends with what it has and the
-  reader says where it stopped. A byte-by-byte walk through damage takes about 3 calls a
-  byte (measured on mutated logs, tests/test_log_reader_fuzz.py), a clean log under 1.
+  reader says where it stopped. A byte-by-byte walk through garbage with no sync to jump to
+  takes 3 calls a byte (a run of zeros), a clean log under 1; 37 505 mutated simulator logs
+  took at most 0.25 and none was stopped (tests/test_log_reader_fuzz.py, bench/fuzz.py).
 - A subscription flattens its format (nested formats, arrays) into one field per value.
   A format of more than MAX_FIELDS values can never fit a data message (65 535 bytes, at
   least one each) and nesting can make it exponential; such a subscription is refused as
