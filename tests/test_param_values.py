@@ -309,3 +309,17 @@ def test_the_banded_distance_is_the_edit_distance_up_to_its_limit(a, b, limit):
 
     full = _full_distance(a, b)
     assert _distance(a, b, limit) == (full if full <= limit else limit + 1)
+
+
+def test_a_new_flight_on_the_same_params_boots_with_the_waiting_reboot_values():
+    # the firmware bridge keeps its Params across sessions and boots a new Flight on them
+    from configfakes import FakeBoard
+
+    from hoverfly.core.flight import Flight
+
+    p = Params()
+    Flight(FakeBoard(), p).start(1000)
+    assert p.set("loop_hz", 2000) is None and p.get("loop_hz") == 1000
+    f = Flight(FakeBoard(), p)
+    f.start(1000)
+    assert p.get("loop_hz") == 2000 and f.loop_hz == 2000 and not p.pending

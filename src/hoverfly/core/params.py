@@ -510,8 +510,13 @@ class Params:
         self.values[name] = v
 
     def latch_boot(self):
-        """The flight has booted: REBOOT rows written from now on wait for the next boot. Returns
-        True if every stored value loaded (the built-in test's params check)."""
+        """A flight boots on these values (Flight.start): REBOOT rows still waiting from an earlier
+        boot apply now (the firmware bridge boots new flights on the same Params), and those written
+        from now on wait for the next boot. Returns True if every stored value loaded (the built-in
+        test's params check)."""
+        for name in self.pending:
+            self.values[name] = self.pending[name]
+        self.pending = {}
         self.booted = True
         return not self.load_skipped
 
