@@ -292,3 +292,46 @@ def test_a_props_off_motor_test_over_msp_is_the_only_way_a_disarmed_motor_turns(
     rig.reconnect(SERIAL_CONFIG)  # the client leaves: its test ends with its session
     rig.run(5)
     assert not rig.flight.motor_test.active and all(v == 0.0 for v in rig.flight.signals.motor_out)
+
+
+@SERVER_FUZZ
+@given(data=st.data())
+def test_each_servers_own_feed_takes_any_bytes_and_then_answers_a_good_request(data):
+    from hoverfly.core.cliserver import CliServer
+    from hoverfly.core.links import ConfigPort
+    from hoverfly.core.maintserver import MaintServer
+    from hoverfly.core.mspserver import MspServer
+
+    rig = Rig()
+    f, st_ = rig.flight, rig.storage
+    kind = data.draw(st.sampled_from(("msp", "cli", "maint", "config")))
+    server = {"msp": MspServer, "cli": CliServer, "maint": MaintServer, "config": ConfigPort}[kind](f, st_)
+    out = []
+    if kind == "cli":
+        server.enter(out.append)
+    make = {"msp": msp_request(), "maint": maint_request(), "cli": cli_line().map(lambda x: (x + "\r\n").encode()),
+            "config": st.one_of(msp_request(), maint_request())}[kind]
+    stream = b"".join(_mutate(data.draw, r) if data.draw(st.booleans()) else r
+                      for r in data.draw(st.lists(make, max_size=10))) + data.draw(st.binary(max_size=200))
+    for chunk in _chunked(data.draw, stream):
+        server.feed(chunk, len(chunk), out.append)
+        rig.run(1)
+    server.close()  # the client went away: a new one starts clean
+    out.clear()
+    if kind == "cli":
+        server.enter(out.append)
+        server.feed(b"get loop_hz\r\n", 13, out.append)
+        assert b"loop_hz" in b"".join(out)
+    elif kind == "maint":
+        req = bytes(mp.encode_request(["body_roll"]))
+        server.feed(req, len(req), out.append)
+        p = mp.MaintenanceParser(replies=True, expected_header=req[1 : 1 + mp.HEADER_LEN])
+        p.feed(b"".join(out))
+        assert p.pop()
+    else:
+        req = msp.encode_request(msp.MSP_API_VERSION)
+        server.feed(req, len(req), out.append)
+        p = msp.MspParser()
+        p.feed(b"".join(out))
+        assert p.pop() and p.cmd == msp.MSP_API_VERSION
+    rig.params_intact()
