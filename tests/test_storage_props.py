@@ -9,7 +9,9 @@ from hypothesis import strategies as st
 from hoverfly.core.params import PARAMS, Params
 from hoverfly.core.storage import LOST, SLOT_BYTES, MemoryStorageBoard, Storage, parse_record
 
-_INT_ROWS = [r for r in PARAMS if isinstance(r[1], int) and not isinstance(r[1], bool) and r[3] > r[2]]
+# rc_map is a permutation of 12345678: most numbers in its range are refused (params.rc_map_error)
+_INT_ROWS = [r for r in PARAMS if isinstance(r[1], int) and not isinstance(r[1], bool) and r[3] > r[2]
+             and r[0] != "rc_map"]
 
 
 def _random_params(rng):

@@ -462,12 +462,13 @@ def check_value(name, value):
 def rc_map_error(value):
     """None when rc_map's eight digits name each receiver channel 1..8 once (a permutation), else why not."""
     seen = 0
+    rest = value
     for _ in range(8):
-        d = value % 10
+        d = rest % 10
         if d < 1 or d > 8 or seen & (1 << d):
             return "rc_map = %d must name each channel 1..8 once (e.g. 12435678 = map AETR1234)" % value
         seen |= 1 << d
-        value //= 10
+        rest //= 10
     return None
 
 
