@@ -17,6 +17,9 @@ from hoverfly.core.storage import Storage, crc32
 from hoverfly.errors import UserError
 from hoverfly.sim.runner import SimRun, build_params
 from hoverfly.sim.scenario import load_scenario
+from test_micropython import MICROPYTHON
+
+needs_mp = pytest.mark.skipif(MICROPYTHON is None, reason="micropython not installed")
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 DESCEND, HOVERING, CLIMB = 0, 1, 2
@@ -34,8 +37,9 @@ class Flight:
     heading (true, from the physics), and the band the throttle stick is in; and the controller's
     angle setpoints."""
 
-    def __init__(self, seed=1):
-        self.run = SimRun("f450", "seed001", seed=seed, rx="pwm")
+    def __init__(self, seed=1, **kw):
+        self.run = SimRun("f450", "seed001", seed=seed, rx=kw.pop("rx", "pwm"), **kw)
+        self.in_process = self.run.firmware == "cpython"  # else only the physics is seen, not the controller
         self.rows = []
         self.max_sp_deg = 0.0
         self.run.on_step = self._sample
@@ -43,13 +47,15 @@ class Flight:
     def _sample(self, run):
         v = run.vehicle
         roll, pitch, yaw = v.euler_rad()
-        us = run.flight.rc.throttle_us
-        band = DESCEND if us < 1333 else (HOVERING if us < 1666 else CLIMB)
+        band = None
+        if self.in_process:
+            us = run.flight.rc.throttle_us
+            band = DESCEND if us < 1333 else (HOVERING if us < 1666 else CLIMB)
+            sp = run.flight.signals.setpoint
+            self.max_sp_deg = max(self.max_sp_deg, abs(math.degrees(sp.roll_angle_rad)),
+                                  abs(math.degrees(sp.pitch_angle_rad)))
         self.rows.append([run.board.sim_us * 1e-6, v.altitude_m(), -v.vd, math.degrees(roll),
                           math.degrees(pitch), math.degrees(yaw), band])
-        sp = run.flight.signals.setpoint
-        self.max_sp_deg = max(self.max_sp_deg, abs(math.degrees(sp.roll_angle_rad)),
-                              abs(math.degrees(sp.pitch_angle_rad)))
 
     def fly(self):
         self.result = self.run.run()
@@ -126,6 +132,21 @@ def test_seed001_lands_and_disarms(flight):
     assert not r["crashed"] and not r["armed"]
     assert r["altitude_m"]["final"] <= 0.05
     assert [e["detail"] for e in r["events"] if e["event"] == "armed"] == ["switch"]
+
+
+@needs_mp
+def test_seed001_flies_the_same_law_on_the_micropython_firmware():
+    # The firmware bridge carries serial receivers only: CRSF stands in for the PWM capture, the sticks and
+    # switches are the same, and so is the control law (the heading hold's update() swap included).
+    f = Flight(seed=1, rx="crsf", firmware="micropython", micropython=MICROPYTHON).fly()
+    r = f.result
+    assert not r["crashed"] and not r["armed"] and r["altitude_m"]["final"] <= 0.05
+    assert 1.5 <= min(row[1] for row in f.between(8.0, 23.0))
+    assert abs(f.at(11.5)[3] - 5.0) <= 1.0 and abs(f.at(13.5)[4] + 5.0) <= 1.0
+    assert max(max(abs(row[3]), abs(row[4])) for row in f.between(3.0, 34.0)) <= 5.0 + 2.0
+    assert abs(f.at(19.0)[5] - f.at(15.9)[5]) <= 1.5  # the kicked heading back
+    assert f.at(20.5)[5] - f.at(19.0)[5] >= 20.0
+    assert max(abs(row[5] - f.at(20.5)[5]) for row in f.between(21.0, 23.0)) <= 4.0
 
 
 # ------------------------------------------------------------------------------ the set itself
