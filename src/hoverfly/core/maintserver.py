@@ -22,6 +22,7 @@ commands 1-5 then drive flight.motor_test, and flight.config_session bit 4 block
 
 from hoverfly import VERSION
 from hoverfly.core.mspserver import CONFIG_MAINT
+from hoverfly.core.rc import aux_channel
 from hoverfly.protocols import maintenance as mp
 
 ERROR_CMD = 127
@@ -249,7 +250,7 @@ class MaintServer:
         ch[rc.roll_ch] = p.rc_roll_us
         ch[rc.pitch_ch] = p.rc_pitch_us
         ch[rc.throttle_ch] = p.rc_throttle_us
-        arm = f.params.get("arm_ch")
+        arm = aux_channel(rc.map_ch, f.params.get("arm_ch"))  # AUX1..4 where rc_map puts them
         if 1 <= arm <= 8:
             ch[arm - 1] = p.rc_armed_us
         self.overrides += 1

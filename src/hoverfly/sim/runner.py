@@ -31,7 +31,7 @@ from hoverfly.core.failsafe import CAUSES, FAULT_NAMES, PROCEDURES
 from hoverfly.core.flight import Flight
 from hoverfly.core.mixer import MIXER_TABLES
 from hoverfly.core.params import Params
-from hoverfly.core.rc import map_channels
+from hoverfly.core.rc import aux_channel, map_channels
 from hoverfly.core.scheduler import PS_JITTER_MAX
 from hoverfly.errors import UserError
 from hoverfly.sim.airframes import load_airframe
@@ -500,7 +500,7 @@ class SimRun:
         if "imu_stuck" in ev:
             self._imu_stuck = ev["imu_stuck"]
         if "autopilot_switch" in ev:
-            ch = self.params.get("ap_ch")
+            ch = aux_channel(self.pilot.map, self.params.get("ap_ch"))  # AUX3 where rc_map puts it
             if ch > 0:
                 p.overrides_us[ch - 1] = 2000 if ev["autopilot_switch"] else 1000
         if "msp_rc" in ev:
