@@ -812,10 +812,12 @@ def run_maint(sim, count, rng):
 
 
 def run_flood(sim, count, rng):
-    """A client floods one port with garbage and requests; a poller on the other port times its replies."""
+    """A client floods one port with garbage and requests; a poller on the other port times its replies
+    (`count` polls each way)."""
     out = _campaign("flood", count)
     out["worst_latency_ms"] = 0.0
     out["polls"] = 0
+    out["note"] = "each poll follows up to 16 x (20 requests + up to 400 bytes of garbage), until the socket is full"
     t0 = time.perf_counter()
     for flood_maint in (False, True):
         flooder = None
@@ -824,14 +826,16 @@ def run_flood(sim, count, rng):
             flooder = connect(sim.maint_port if flood_maint else sim.msp_port)
             flooder.setblocking(False)
             poller = MspClient(sim.msp_port) if flood_maint else MaintClient(sim.maint_port)
-            sent = 0
-            while sent < count // 2:
+            for _ in range(count):
                 junk = b"".join(maint_request(rng) if flood_maint else msp_request(rng) for _ in range(20))
                 junk += bytes(rng.randrange(256) for _ in range(rng.randrange(0, 400)))
+                bursts = 0
                 try:
-                    flooder.send(junk)
+                    for _ in range(16):  # until the socket is full: the sim reads at its own pace
+                        flooder.send(junk)
+                        bursts += 1
                 except (BlockingIOError, InterruptedError):
-                    pass  # the sim reads at its pace; a full socket is the flood's own back-pressure
+                    pass
                 except OSError:
                     break
                 try:
@@ -841,7 +845,6 @@ def run_flood(sim, count, rng):
                     pass
                 except OSError:
                     break
-                sent += 20
                 w0 = time.perf_counter()
                 if flood_maint:
                     ok = poller.ask(msp.MSP_STATUS, timeout_s=3.0) is not None
@@ -852,7 +855,7 @@ def run_flood(sim, count, rng):
                 out["requests"] += 1
                 out["answered" if ok else "unanswered"] += 1
                 out["worst_latency_ms"] = max(out["worst_latency_ms"], round(lat, 1))
-                out["inputs"] += 20
+                out["inputs"] += 20 * bursts
                 if not sim.check("flood"):
                     out["deaths"] += 1
                     break
@@ -900,6 +903,12 @@ def run_storm(sim, count, rng):
     ab = {"tried": 0, "spinning_seen": 0, "stopped_within_300ms": 0}
     watch = None
     try:
+        # the campaigns before may have left any valid setting (motor_test_pct = 0 would hide the test)
+        c = connect(sim.msp_port, 2.0)
+        c.sendall(b"#\r\ndefaults nosave\r\nexit\r\n")
+        time.sleep(0.5)
+        c.close()
+        time.sleep(0.1)
         watch = MaintClient(sim.maint_port)
         for _ in range(5):
             a = connect(sim.msp_port, 2.0)
@@ -946,6 +955,8 @@ def fuzz_servers(names, count, seed):
         sim.start()
         for name in names:
             rng = random.Random("%s-%d" % (name, seed))
+            # flood: count/20 polls per direction, each after 20 flooded requests and up to 400 bytes of
+            # garbage; storm: count/20 connections
             n = count if name not in ("flood", "storm") else max(20, count // 20)
             r = SERVER_CAMPAIGNS[name](sim, n, rng)
             alive = sim.check(name + " end")
