@@ -239,3 +239,54 @@ def test_cli_map_prints_and_sets_the_map_as_betaflight_does():
     f.arming.armed = True
     assert "refused while armed" in _type(cli, "map AETR1234\r")
     assert f.params.get("rc_map") == 23415678
+
+
+# -------------------------------------------------------------------------------- MSP
+def _msp():
+    from hoverfly.core.mspserver import MspServer
+
+    flight, _ = make_flight()
+    return MspServer(flight), flight
+
+
+def _msp_ask(server, cmd, payload=b""):
+    from hoverfly.protocols import msp
+
+    out = []
+    frame = msp.encode_request(cmd, payload)
+    server.feed(frame, len(frame), out.append)
+    p = msp.MspParser()
+    for chunk in out:
+        p.feed(chunk)
+    assert p.pop(), "no reply"
+    return p.direction, p.message()
+
+
+def test_msp_rx_map_reads_and_writes_the_map_as_betaflight_does():
+    from hoverfly.core.mspserver import MSP_RX_MAP, MSP_SET_RX_MAP
+    from hoverfly.protocols import msp
+
+    s, f = _msp()
+    assert _msp_ask(s, MSP_RX_MAP) == (msp.DIR_REPLY, bytes([0, 1, 3, 2, 4, 5, 6, 7]))  # AETR1234
+    assert _msp_ask(s, MSP_SET_RX_MAP, bytes([0, 1, 2, 3, 4, 5, 6, 7]))[0] == msp.DIR_REPLY  # AERT1234
+    assert f.params.get("rc_map") == 12345678
+    for bad in (bytes([0, 1, 2, 3, 4, 5, 6, 6]), bytes([0, 1, 2, 3, 4, 5, 6, 8]), bytes([0, 1, 2])):
+        assert _msp_ask(s, MSP_SET_RX_MAP, bad)[0] == msp.DIR_ERROR, bad
+        assert f.params.get("rc_map") == 12345678
+    f.arming.armed = True
+    assert _msp_ask(s, MSP_SET_RX_MAP, bytes([1, 2, 3, 0, 4, 5, 6, 7]))[0] == msp.DIR_ERROR
+    assert f.params.get("rc_map") == 12345678
+
+
+def test_msp_rc_reports_sticks_and_aux_in_betaflight_order_whatever_the_map():
+    from hoverfly.protocols import msp
+
+    s, f = _msp()
+    text = "1234AETR"  # the sticks on receiver channels 5..8, AUX1..4 on 1..4
+    f.params.set("rc_map", map_value(text)[0])
+    f.rc.configure(f.params, 1000)
+    ch = _frame_for(text, 1100, 1200, 1300, 1400, aux_us=(1501, 1502, 1503, 1504))
+    for i in range(16):
+        f.signals.rc_channels_us[i] = ch[i]
+    got = msp.unpack_rc(_msp_ask(s, msp.MSP_RC)[1])
+    assert list(got[:8]) == [1100, 1200, 1300, 1400, 1501, 1502, 1503, 1504]

@@ -24,6 +24,7 @@ from hoverfly.core.autopilot import AP_ENABLED, LATCH_HARD
 from hoverfly.core.control import MODE_ANGLE, MODE_HORIZON
 from hoverfly.core.failsafe import IDLE
 from hoverfly.core.motortest import STOP_LINK
+from hoverfly.core.rc import map_channels
 from hoverfly.core.scheduler import PS_CYCLE
 from hoverfly.protocols import msp
 
@@ -36,6 +37,8 @@ _ACC_1G = 2048  # MSP_RAW_IMU accelerometer LSB per g (Betaflight's acc_1G on mo
 _GYRO_LSB_PER_DPS = 16.4  # MSP_RAW_IMU gyro LSB per deg/s (+-2000 deg/s part, reference 6.3)
 _G = 9.80665
 MSP_ACC_TRIM = 240  # Betaflight msp_protocol.h; yamspy's basic_info asks for it
+MSP_RX_MAP = 64  # Betaflight msp_protocol.h: u8 x 8, the receiver channel (0-based) of each function, AERT1234
+MSP_SET_RX_MAP = 65
 
 # The modes hoverfly reports (MSP_BOXIDS / BOXNAMES order; STATUS mode_flags bit = index here).
 BOXES = ((0, "ARM"), (1, "ANGLE"), (2, "HORIZON"), (28, "AIR MODE"), (27, "FAILSAFE"))
@@ -221,6 +224,13 @@ class MspServer:
             # i16 pitch, i16 roll; hoverfly sends its trims in 0.1 deg (Betaflight: accelerometer counts)
             p = f.params
             return pack("<hh", int(p.get("acc_trim_pitch") * 10.0), int(p.get("acc_trim_roll") * 10.0))
+        if cmd == MSP_RX_MAP:
+            return bytes(map_channels(f.params.get("rc_map")))
+        if cmd == MSP_SET_RX_MAP:
+            # SAFETY: a stick or switch moved to another channel in flight: not while armed.
+            if f.arming.armed:
+                return self._refuse("refused while armed")
+            return self._set_rx_map(payload, length)
         if cmd == msp.MSP_SET_RAW_RC:
             return self._set_raw_rc(payload, length)
         if cmd == msp.MSP2_HOVERFLY_AUTOPILOT:
@@ -277,8 +287,9 @@ class MspServer:
         out[1] = ch[rc.pitch_ch]
         out[2] = ch[rc.yaw_ch]
         out[3] = ch[rc.throttle_ch]
+        m = rc.map_ch
         for i in range(4, len(ch)):
-            out[i] = ch[i]
+            out[i] = ch[m[i]] if i < 8 else ch[i]  # AUX1..4 where rc_map puts them, as Betaflight's rcData
         return out
 
     def _status(self, ex):
@@ -332,6 +343,20 @@ class MspServer:
             else:
                 ranges.append((0, 0, 0, 0))
         return msp.pack_mode_ranges(ranges)
+
+    def _set_rx_map(self, payload, length):
+        """MSP_SET_RX_MAP: Betaflight's rcmap (a 0-based receiver channel per roll, pitch, yaw, throttle,
+        AUX1..4) into rc_map through params.set, which refuses anything but a permutation."""
+        if length < 8:
+            return self._refuse("SET_RX_MAP needs 8 bytes, a channel 0..7 per function (AERT1234)")
+        v = 0
+        for i in range(8):
+            c = payload[i]
+            if c > 7:
+                return self._refuse("SET_RX_MAP channel %d: hoverfly maps channels 0..7" % c)
+            v = v * 10 + c + 1
+        err = self.flight.params.set("rc_map", v)
+        return b"" if err is None else self._refuse(err)
 
     def _set_mode_range(self, payload, length):
         """MSP_SET_MODE_RANGE: a box's AUX channel and range into its parameters (<key>_ch, _min_us,
