@@ -39,6 +39,7 @@ import os
 import random
 import re
 import select
+import shutil
 import signal
 import socket
 import struct
@@ -389,6 +390,14 @@ class Sim:
                 p.wait(5)
         p.stdout.close()
         self.proc = None
+
+    def cleanup(self):
+        """Remove the temporary directory (storage, stderr): after the last stderr_tail()."""
+        self.stop()
+        if self._err is not None:
+            self._err.close()
+            self._err = None
+        shutil.rmtree(self.dir, ignore_errors=True)
 
     def rss_kb(self):
         try:
@@ -969,7 +978,7 @@ def fuzz_servers(names, count, seed):
         results["sim"] = {"starts": sim.starts, "deaths": sim.deaths, "stderr_tracebacks": sim.tracebacks(),
                           "rss_kb_end": sim.rss_kb()}
     finally:
-        sim.stop()
+        sim.cleanup()
     return results
 
 
@@ -994,6 +1003,8 @@ def main(argv=None):
                 if name == "ulog":
                     n = args.ulog_count if args.ulog_count is not None else max(1, args.count // 100)
                 report["parsers"][name] = fuzz_parser(name, parser, n, args.seed, args.hang_s)
+                if isinstance(parser, Ulog):
+                    shutil.rmtree(parser.dir, ignore_errors=True)
     finally:
         signal.signal(signal.SIGALRM, old)
     if args.servers != "none":

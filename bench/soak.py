@@ -223,7 +223,8 @@ def main(argv=None):
         stop.set()
         for t in threads:
             t.join(10)
-        sim.stop()
+        deaths = list(sim.deaths)
+        sim.cleanup()
     rates = loop_rates(counts.samples)
     settled = [p for p in rss if p[0] >= 60.0] or rss
     report = {
@@ -245,8 +246,8 @@ def main(argv=None):
         "armed_polls": counts.armed_seen,
         "exceptions": (errors or 0) + tracebacks,
         "loop_errors_line": line,
-        "deaths": len(sim.deaths),
-        "death_details": sim.deaths,
+        "deaths": len(deaths),
+        "death_details": deaths,
         "hangs": hangs,
     }
     json.dump(report, sys.stdout, indent=1)
