@@ -14,8 +14,6 @@ test_maintenance_props.py), DShot single-bit errors (test_esc_props.py), the bri
 (test_bridge_integrity.py). bench/fuzz.py runs these mutations at 10^6 inputs per parser.
 """
 
-import struct
-
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -258,4 +256,3 @@ def test_the_adapters_read_their_own_good_frames():
         else:
             p.feed(a.good(raw))
             assert p.pop(), name
-    assert struct.calcsize("<H") == 2
