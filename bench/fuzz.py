@@ -28,9 +28,9 @@ counts arming events and motor outputs while disarmed. The sim's own caught erro
 "Loop errors") and tracebacks on its stderr are exceptions; a sim that exits is a death (it is
 started again); a sim that is alive but does not answer a fresh client within 5 s is a hang.
 
-Prints one JSON object: per parser {inputs, exceptions, hangs, failures}, per server campaign
-{inputs, requests, answered, unanswered, ...}, and totals {inputs, exceptions, hangs, deaths,
-arming_events, unanswered}. Only 127.0.0.1; every subprocess is ended in a finally.
+Prints one JSON object: per parser {inputs, exceptions, hangs, worst_ms (the slowest input),
+failures}, per server campaign {inputs, requests, answered, unanswered, ...}, and totals {inputs,
+exceptions, hangs, deaths, arming_events, unanswered}. Only 127.0.0.1; every subprocess is ended in a finally.
 """
 
 import argparse
@@ -289,7 +289,8 @@ def _short(x, n=300):
 
 def fuzz_parser(name, parser, count, seed, hang_s):
     rng = random.Random("%s-%d" % (name, seed))
-    out = {"inputs": 0, "exceptions": 0, "hangs": 0, "seconds": 0.0, "failures": []}
+    out = {"inputs": 0, "exceptions": 0, "hangs": 0, "seconds": 0.0, "worst_ms": 0.0, "failures": []}
+    worst = 0.0
     t0 = time.perf_counter()
     p = None
     for i in range(count):
@@ -297,6 +298,7 @@ def fuzz_parser(name, parser, count, seed, hang_s):
             p = parser.make()
         x = parser.input(rng)
         signal.setitimer(signal.ITIMER_REAL, hang_s)
+        w0 = time.perf_counter()
         try:
             parser.run(p, rng, x)
         except Hang:
@@ -312,8 +314,12 @@ def fuzz_parser(name, parser, count, seed, hang_s):
                                         "traceback": "".join(traceback.format_exception(exc))[-1500:]})
         finally:
             signal.setitimer(signal.ITIMER_REAL, 0)
+            took = time.perf_counter() - w0
+            if took > worst:
+                worst = took
         out["inputs"] += 1
     out["seconds"] = round(time.perf_counter() - t0, 1)
+    out["worst_ms"] = round(worst * 1000, 2)
     return out
 
 
