@@ -9,6 +9,7 @@ a small multiple of the file's size, and where pyulog alone ends it reads the sa
 pyulog 1.3 alone hung on 46 of 37 505 mutated logs (issue 30).
 """
 
+import os
 import signal
 import struct
 
@@ -269,3 +270,25 @@ def test_a_log_load_of_a_damaged_file_keeps_what_it_could_read(sim_log, tmp_path
     log = load(_write(tmp_path, d, "ff.ulg"))
     assert log.is_hoverfly and log.topic("sensor_combined") is not None
     assert any("corruption" in w for w in log.warnings)
+
+
+def test_topic_names_with_path_characters_stay_inside_the_csv_directory(sim_log, tmp_path, capsys):
+    # the format name is the file's own text: '/' and '..' in it must not steer where files go
+    evil = sim_log.replace(b"input_rc", b"in/../rc").replace(b"battery_status", b"../../../../up")
+    path = _write(tmp_path, evil, "evil.ulg")
+    out = tmp_path / "deep" / "csv"
+    assert main(["log", "csv", str(path), "--out", str(out)]) == 0
+    written = capsys.readouterr().out.split()
+    assert written and all(os.path.dirname(p) == str(out) for p in written)
+    assert sorted(os.listdir(tmp_path)) == ["deep", "evil.ulg"] and os.listdir(tmp_path / "deep") == ["csv"]
+    assert any(p.endswith("_in____rc.csv") for p in written)
+
+
+def test_an_output_directory_that_cannot_be_written_is_one_error_line(sim_log, tmp_path, capsys):
+    path = _write(tmp_path, sim_log)
+    blocker = tmp_path / "file"
+    blocker.write_text("not a directory")
+    for cmd in ("csv", "report"):
+        assert main(["log", cmd, str(path), "--out", str(blocker / "out")]) == 2
+        err = capsys.readouterr().err
+        assert "cannot write to" in err and "Traceback" not in err and err.count("\n") == 1

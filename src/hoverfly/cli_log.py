@@ -73,11 +73,20 @@ def run_params(args):
     return 0
 
 
+def _writing(out_dir, fn, *args):
+    """fn(*args) writing into out_dir: a directory that cannot be made or written is one error line."""
+    try:
+        return fn(*args)
+    except OSError as exc:
+        raise UserError("cannot write to %s: %s" % (out_dir, exc.strerror or exc)) from None
+
+
 def run_csv(args):
     from hoverfly.logs.csvexport import write_csv
 
     log = _load(args)
-    paths = write_csv(log, _out_dir(args, "_csv"), args.topic)
+    out = _out_dir(args, "_csv")
+    paths = _writing(out, write_csv, log, out, args.topic)
     if not paths:
         raise UserError("%s: no topic to export%s" % (args.file, " (asked for: %s)" % ", ".join(args.topic)
                                                        if args.topic else ""))
@@ -93,7 +102,8 @@ def run_plot(args):
         if n not in NAMES:
             raise UserError("--only %s: no such plot (one of %s)" % (n, ", ".join(NAMES)))
     log = _load(args)
-    done = plot_all(log, _out_dir(args, "_plots"), args.only)
+    out = _out_dir(args, "_plots")
+    done = _writing(out, plot_all, log, out, args.only)
     if not done:
         raise UserError("%s: nothing to plot (no hoverfly/PX4 topics with data)" % args.file)
     for _, _, p in done:
@@ -105,7 +115,8 @@ def run_report(args):
     from hoverfly.logs.report import write_report
 
     log = _load(args)
-    r = write_report(log, _out_dir(args, "_report"))
+    out = _out_dir(args, "_report")
+    r = _writing(out, write_report, log, out)
     print(r["index"])
     for axis, st in r["steps"].items():
         if st:
@@ -123,7 +134,8 @@ def run_replay(args):
     result = replay(log, overrides)
     for w in result.warnings:
         print("hoverfly: warning: %s" % w, file=sys.stderr)
-    paths = plot_replay(result, _out_dir(args, "_replay"), log.motor_count())
+    out = _out_dir(args, "_replay")
+    paths = _writing(out, plot_replay, result, out, log.motor_count())
     d = result.to_dict()
     d["plots"] = paths
     if args.json:

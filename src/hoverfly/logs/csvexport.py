@@ -6,6 +6,14 @@ Columns: timestamp (µs), t_s (from the log's start), then the topic's fields in
 import csv
 import os
 
+_SAFE = frozenset("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-")
+
+
+def file_part(name):
+    """A topic name as part of a file name: letters, digits, '_' and '-' kept, anything else '_'. The
+    name comes from the file's own format text, which may hold '/', '..' or a NUL."""
+    return "".join(c if c in _SAFE else "_" for c in name[:100]) or "_"
+
 
 def write_csv(log, out_dir, topics=None):
     """Write <out_dir>/<stem>_<topic>.csv for each topic (all, or those named); returns the paths."""
@@ -17,7 +25,9 @@ def write_csv(log, out_dir, topics=None):
             continue
         data = log.topics[d.name]
         names = ["timestamp", "t_s"] + [f.field_name for f in d.field_data if f.field_name != "timestamp"]
-        path = os.path.join(out_dir, "%s_%s.csv" % (stem, d.name))
+        path = os.path.join(out_dir, "%s_%s.csv" % (stem, file_part(d.name)))
+        while path in paths:  # two names that differ only in unsafe characters
+            path = path[:-4] + "_.csv"
         cols = [data[n] for n in names]
         with open(path, "w", newline="") as f:
             w = csv.writer(f)
