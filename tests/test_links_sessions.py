@@ -452,3 +452,22 @@ def test_feed_some_delivers_what_an_unbounded_queue_would_however_small_its_queu
                 break
         k = n
     assert got == expected and p.dropped == 0
+
+
+def test_a_server_that_raises_closes_only_its_own_session_and_the_other_port_is_still_served():
+    links, flight, board = _links()
+    broken = links.config.msp
+
+    def boom(cmd, payload, length):
+        raise RuntimeError("injected")
+
+    real_handle = broken.handle
+    broken.handle = boom
+    board.rx[SERIAL_CONFIG] += msp.encode_request(msp.MSP_API_VERSION) * 3
+    links.task(board.now_us())
+    assert links.server_errors == 1 and "injected" in links.status_line()
+    broken.handle = real_handle
+    board.take(SERIAL_CONFIG)
+    board.rx[SERIAL_CONFIG] += msp.encode_request(msp.MSP_API_VERSION)  # the port is not wedged
+    links.task(board.now_us())
+    assert _replies(board.take(SERIAL_CONFIG)) == [msp.MSP_API_VERSION] and links.server_errors == 1

@@ -133,6 +133,8 @@ class ConfigLinks:
         self.held_back = 0  # runs that left a port's requests for the next run (its share used up)
         self.partial_timeouts = 0  # half frames dropped after PARTIAL_FRAME_US of silence
         self.sessions_closed = 0
+        self.server_errors = 0  # requests whose server raised (the port's session was closed)
+        self.last_server_error = None
         self._writers = (self._write_config, self._write_maint)
         self._servers = ((SERIAL_CONFIG, self.config), (SERIAL_MAINT, self.maint))  # built once: no tuples per run
         # Per port: the bytes read and not yet taken (a run's share ran out), and when bytes last came.
@@ -164,7 +166,14 @@ class ConfigLinks:
         if self.storage is not None:  # the built-in test follows the storage: a good save clears it
             self.flight.bit.storage_ok = not self.storage.failed
         for port, server in self._servers:
-            self._serve(port, server, now_us)
+            try:
+                self._serve(port, server, now_us)
+            except Exception as exc:  # a link's fault must not cost the other port or the loop
+                # A request that raised would be served again on every run (its bytes are still held) and
+                # wedge the port: the session ends, its held bytes and half frames go, the error is counted.
+                self.server_errors += 1
+                self.last_server_error = exc
+                self.close(port)
 
     def _serve(self, port, server, now_us):
         board = self.board
@@ -202,10 +211,13 @@ class ConfigLinks:
 
     def status_line(self):
         c = self.config
+        last = "" if self.last_server_error is None else " (last %r)" % (self.last_server_error,)
         return ("Links: MSP %d requests, maintenance %d (USB %d), held for a later run %d, "
-                "partial frames timed out %d, frames dropped %d, reply bytes dropped %d, sessions closed %d"
+                "partial frames timed out %d, frames dropped %d, reply bytes dropped %d, sessions closed %d, "
+                "server errors %d%s"
                 % (c.msp.requests, self.maint.requests, c.maint.requests, self.held_back, self.partial_timeouts,
-                   c.dropped() + self.maint.parser.dropped, self.dropped_bytes, self.sessions_closed))
+                   c.dropped() + self.maint.parser.dropped, self.dropped_bytes, self.sessions_closed,
+                   self.server_errors, last))
 
 
 def attach(flight, storage=None, rate_hz=None):
