@@ -17,6 +17,7 @@ from hypothesis import strategies as st
 sys.path.insert(0, str(Path(__file__).parent / "portable"))
 from configfakes import make_flight  # noqa: E402
 
+from hoverfly.core.arming import MAINTENANCE, session_flags  # noqa: E402
 from hoverfly.core.board import SERIAL_CONFIG, SERIAL_MAINT  # noqa: E402
 from hoverfly.core.links import PARTIAL_FRAME_US, REQUESTS_PER_RUN, ConfigLinks, ConfigPort  # noqa: E402
 from hoverfly.core.mspserver import CONFIG_MSP  # noqa: E402
@@ -471,3 +472,17 @@ def test_a_server_that_raises_closes_only_its_own_session_and_the_other_port_is_
     board.rx[SERIAL_CONFIG] += msp.encode_request(msp.MSP_API_VERSION)  # the port is not wedged
     links.task(board.now_us())
     assert _replies(board.take(SERIAL_CONFIG)) == [msp.MSP_API_VERSION] and links.server_errors == 1
+
+
+def test_one_maintenance_session_letting_go_of_the_motors_keeps_the_others_arming_lock():
+    links, flight, board = _links()
+    take_motors = mp.encode_request([], mp.CMD_CONTROL_MOTORS, (1,))
+    board.rx[SERIAL_CONFIG] += take_motors  # maintenance on the USB (config) port
+    board.rx[SERIAL_MAINT] += take_motors  # and on the UART
+    links.task(board.now_us())
+    assert links.config.maint.motor_control and links.maint.motor_control
+    board.rx[SERIAL_MAINT] += mp.encode_request([], mp.CMD_CONTROL_MOTORS, (0,))  # the UART client lets go
+    board.t_us += 10000
+    links.task(board.now_us())
+    assert not links.maint.motor_control
+    assert session_flags(flight.config_session) & (1 << MAINTENANCE)  # the USB client still holds it

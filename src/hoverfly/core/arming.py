@@ -86,6 +86,7 @@ REASONS = {
 SESSION_CLI = const(1)
 SESSION_MSP = const(2)
 SESSION_MAINTENANCE = const(4)
+SESSION_MAINTENANCE_USB = const(8)  # a second maintenance session, on the config (USB) port
 
 # Who armed (detail of the `armed` event).
 SOURCE_SWITCH = const(0)
@@ -102,7 +103,7 @@ def session_flags(config_session):
         f |= 1 << CLI
     if config_session & SESSION_MSP:
         f |= 1 << MSP
-    if config_session & SESSION_MAINTENANCE:
+    if config_session & (SESSION_MAINTENANCE | SESSION_MAINTENANCE_USB):
         f |= 1 << MAINTENANCE
     return f
 

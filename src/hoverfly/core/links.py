@@ -25,7 +25,7 @@ from hoverfly.compat import const, ticks_diff
 from hoverfly.core.board import SERIAL_CONFIG, SERIAL_MAINT
 from hoverfly.core.cliserver import CliServer
 from hoverfly.core.maintserver import MaintServer
-from hoverfly.core.mspserver import MspServer
+from hoverfly.core.mspserver import CONFIG_MAINT_USB, MspServer
 
 LINKS_HZ = 100  # serial_update_hz's default (Betaflight's serial_update_rate_hz)
 REQUESTS_PER_RUN = const(16)  # per port: 1 600 requests/s at 100 Hz, 16 000 at 1 kHz
@@ -43,6 +43,7 @@ class ConfigPort:
         self.msp = MspServer(flight, storage)
         self.cli = CliServer(flight, storage)
         self.maint = MaintServer(flight, storage)
+        self.maint.session_bit = CONFIG_MAINT_USB
         self.served = 0
 
     def feed(self, data, n, write):

@@ -54,6 +54,9 @@ class MaintServer:
     def __init__(self, flight, storage=None, layout=mp.LAYOUT_SEED):
         self.flight = flight
         self.storage = storage
+        # Each maintenance server holds its own config_session bit: one releasing motor control must not
+        # clear the arming lock another (UART beside USB) still holds.
+        self.session_bit = CONFIG_MAINT
         self.layout = layout
         self.parser = mp.MaintenanceParser(layout=layout, queue_depth=2)
         self.buf = bytearray(1 + mp.HEADER_LEN + mp.MAX_REPLY_PAYLOAD + 1)
@@ -100,7 +103,8 @@ class MaintServer:
                 mt.stop(0)
         self.motor_control = on
         s = getattr(f, "config_session", 0)
-        f.config_session = (s | CONFIG_MAINT) if on else (s & ~CONFIG_MAINT)
+        bit = self.session_bit
+        f.config_session = (s | bit) if on else (s & ~bit)
 
     def feed(self, data, n, write):
         """Answer every request in data[:n], in order."""

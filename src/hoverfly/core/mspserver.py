@@ -31,6 +31,7 @@ from hoverfly.protocols import msp
 CONFIG_CLI = 1  # flight.config_session bits (core/arming.py blocks arming while any is set)
 CONFIG_MSP = 2
 CONFIG_MAINT = 4
+CONFIG_MAINT_USB = 8  # the maintenance protocol on the config (USB) port: a session of its own
 
 _DEG = 57.29577951308232
 _ACC_1G = 2048  # MSP_RAW_IMU accelerometer LSB per g (Betaflight's acc_1G on modern parts)
