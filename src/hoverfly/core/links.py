@@ -175,6 +175,7 @@ class ConfigLinks:
                 self.server_errors += 1
                 self.last_server_error = exc
                 self.close(port)
+                self.flight.scheduler.caught("links", exc)  # the loop's error count: built-in test, CLI status
 
     def _serve(self, port, server, now_us):
         board = self.board
