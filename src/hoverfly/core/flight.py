@@ -113,10 +113,10 @@ class Flight:
         self.arming.on_reasons = self._reasons_now
         self._pilot_only = True  # command()'s short way (_who_flies)
         self.bit = BuiltInTest()
-        self.config_session = 0  # 1 CLI, 2 MSP configurator, 4 maintenance: any set blocks arming
+        self.config_session = 0  # 1 CLI, 2 MSP configurator, 4 maintenance, 8 maintenance on USB: any set blocks arming
         # params.changed and config_session as _config_check saw them last: a change of either since is a
-        # configuration change (arming's toggle rule). (Few new attributes here: the pass reads this table,
-        # and past 77 of its 97 slots compat.attr_room grows it, which costs the pass ~3k instructions.)
+        # configuration change (arming's toggle rule). Held in one list: the pass reads this instance's
+        # attribute table, which compat.attr_room sizes, so it gains no attributes the pass does not need.
         self._config_seen = [-1, 0]
         self._arming_broken = False  # the arming task raised on its last run (_task_failed): BIT blocks arming
         self._arming_us = 0

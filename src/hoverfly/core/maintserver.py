@@ -21,7 +21,7 @@ commands 1-5 then drive flight.motor_test, and flight.config_session bit 4 block
 """
 
 from hoverfly import VERSION
-from hoverfly.core.mspserver import CONFIG_MAINT
+from hoverfly.core.mspserver import CONFIG_MAINT, ParsedRequests
 from hoverfly.core.rc import aux_channel
 from hoverfly.protocols import maintenance as mp
 
@@ -50,7 +50,7 @@ def _hz_of_tau(tau):
     return int(1.0 / (_TWO_PI * tau) + 0.5) if tau > 0 else 0
 
 
-class MaintServer:
+class MaintServer(ParsedRequests):
     def __init__(self, flight, storage=None, layout=mp.LAYOUT_SEED):
         self.flight = flight
         self.storage = storage
@@ -81,19 +81,6 @@ class MaintServer:
         if self.motor_control:
             self._motor_control(False)
         self.parser.reset()
-
-    def in_frame(self):
-        """True while a frame is half received."""
-        return self.parser.in_frame()
-
-    def idle(self):
-        """The line has been quiet past the inter-byte timeout: a half frame will never complete."""
-        self.parser.idle()
-
-    def pending(self):
-        """Requests parsed and not yet answered (serve() stopped at its budget), or taken bytes not yet
-        scanned (the parser's carry): either way serve() has work without a new byte."""
-        return self.parser.pending() or self.parser.carrying()
 
     def _motor_control(self, on):
         f = self.flight

@@ -69,7 +69,24 @@ def arming_flags(flight):
     return flight.arming.flags
 
 
-class MspServer:
+class ParsedRequests:
+    """What the links task asks of a server over a streaming parser (MSP, maintenance): its `parser`'s state."""
+
+    def in_frame(self):
+        """True while a frame is half received (on the config port a '#' then belongs to it, not to the CLI)."""
+        return self.parser.in_frame()
+
+    def idle(self):
+        """The line has been quiet past the inter-byte timeout: a half frame will never complete."""
+        self.parser.idle()
+
+    def pending(self):
+        """Requests parsed and not yet answered (serve() stopped at its budget), or taken bytes not yet
+        scanned (the parser's carry): either way serve() has work without a new byte."""
+        return self.parser.pending() or self.parser.carrying()
+
+
+class MspServer(ParsedRequests):
     def __init__(self, flight, storage=None, identity=None):
         self.flight = flight
         self.storage = storage
@@ -99,19 +116,6 @@ class MspServer:
         _set_session(self.flight, CONFIG_MSP, False)
         self.reboot_requested = False
         self.parser.reset()
-
-    def in_frame(self):
-        """True while a frame is half received (a '#' then belongs to it, not to the CLI)."""
-        return self.parser.in_frame()
-
-    def idle(self):
-        """The line has been quiet past the inter-byte timeout: a half frame will never complete."""
-        self.parser.idle()
-
-    def pending(self):
-        """Requests parsed and not yet answered (serve() stopped at its budget), or taken bytes not yet
-        scanned (the parser's carry): either way serve() has work without a new byte."""
-        return self.parser.pending() or self.parser.carrying()
 
     def feed(self, data, n, write):
         """Answer every request in data[:n], in order."""
