@@ -77,6 +77,9 @@ class _BoundedFile:
         self.calls = 0
         self.budget = budget
         self.stopped_at = -1
+        # A relative seek or tell made past the end, where a plain file would have stopped at the end: from
+        # then on pyulog reads this file differently from the plain one (on purpose: that is the hang's fix).
+        self.past_end_used = False
 
     def read(self, n=-1):
         pos = self._pos
@@ -93,6 +96,8 @@ class _BoundedFile:
     def seek(self, offset, whence=0):
         self.calls += 1
         if whence == 1:
+            if self._pos > len(self._data):
+                self.past_end_used = True
             offset += self._pos
         elif whence == 2:
             offset += len(self._data)
@@ -102,6 +107,8 @@ class _BoundedFile:
         return offset
 
     def tell(self):
+        if self._pos > len(self._data):
+            self.past_end_used = True
         return self._pos
 
     def close(self):
