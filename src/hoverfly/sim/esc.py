@@ -68,6 +68,7 @@ class SimEsc:
         self.edt = False
         self._cmd_run = 0
         self._cmd_value = -1
+        self._throttle_word = -1  # the last good throttle frame: the same word decodes the same way
         if self.dshot:
             self._line_normal = DshotPulseDecoder(self.speed_kbit, bidir=False)
             self._line_bidir = DshotPulseDecoder(self.speed_kbit, bidir=True)
@@ -81,6 +82,11 @@ class SimEsc:
     # ------------------------------------------------------------ DShot
     def receive_word(self, word):
         """One DShot frame off the wire; returns the throttle 0..1 the motor now runs to."""
+        if word == self._throttle_word:
+            # A throttle frame repeated (most of them, at a 1 kHz loop): its CRC, kind and value are
+            # the last one's, and only a command frame, which clears this, can change the ESC's mode.
+            self.frames += 1
+            return self.throttle_norm
         if frame_crc_ok(word, False):
             bidir = False
         elif frame_crc_ok(word, True):
@@ -91,6 +97,7 @@ class SimEsc:
         self.bidir = bidir
         self.frames += 1
         value = (word >> 5) & 0x7FF
+        self._throttle_word = word if value >= THROTTLE_MIN else -1
         if value == 0:  # stop; stop frames between a command's repeats keep its count
             self.throttle_norm = 0.0
         elif value < THROTTLE_MIN:

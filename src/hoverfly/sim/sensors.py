@@ -32,6 +32,8 @@ class ImuModel:
         self.phase = [rng.uniform(0.0, 2.0 * math.pi) for _ in range(motor_count)]
         # each motor shakes along its own direction in the body plane (imbalance)
         self.vib_dir = [rng.uniform(0.0, 2.0 * math.pi) for _ in range(motor_count)]
+        self._vib_cos = [math.cos(d) for d in self.vib_dir]
+        self._vib_sin = [math.sin(d) for d in self.vib_dir]
         self.gyro_max = math.radians(cfg["gyro_range_dps"])
         self.accel_max = cfg["accel_range_g"] * 9.80665
         self.frozen = False
@@ -61,18 +63,19 @@ class ImuModel:
         dt = self.dt
         ph = self.phase
         omega = v.omega
-        dirs = self.vib_dir
+        dir_cos = self._vib_cos
+        dir_sin = self._vib_sin
+        sin = math.sin
         for i in range(len(omega)):
             w = omega[i]
             p = ph[i] + w * dt
             if p > 6.283185307179586:
                 p -= 6.283185307179586 * int(p / 6.283185307179586)
             ph[i] = p
-            a = w * w * math.sin(p)
+            a = w * w * sin(p)
             vib_g += a
-            d = dirs[i]
-            vib_x += a * math.cos(d)
-            vib_y += a * math.sin(d)
+            vib_x += a * dir_cos[i]
+            vib_y += a * dir_sin[i]
         gv = self.gyro_vib
         av = self.accel_vib
         gx = v.p + gb[0] + gs * nz[k] + gv * vib_x
