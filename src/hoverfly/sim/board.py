@@ -119,8 +119,22 @@ class SimBoard(SampledBoard):
         out = self.output
         escs = self.escs
         cmd = self.motor_cmd
-        omega = self.rotor_omega_rad_s
         line = self.esc_line
+        if out.dshot and not out.bidir and not line:
+            # The usual wire (DShot words, no replies), taken without the per-line choices below.
+            words = out.words
+            motor_of_line = out.motor_of_line
+            for ln in range(out.motor_count):
+                esc = escs[ln]
+                if esc.dshot:
+                    cmd[motor_of_line[ln]] = esc.receive_word(words[ln])
+                else:
+                    cmd[motor_of_line[ln]] = esc.throttle_norm  # an analog ESC cannot read DShot: it holds
+                    esc.errors += 1
+            for i in range(out.servo_count):
+                self.servo_cmd[i] = self.servos[i].receive_pulse_us(out.servo_us[i])
+            return
+        omega = self.rotor_omega_rad_s
         for ln in range(out.motor_count):
             m = out.motor_of_line[ln]
             esc = escs[ln]

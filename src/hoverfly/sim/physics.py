@@ -144,6 +144,8 @@ class Vehicle:
         px = self.px
         py = self.py
         spin = self.spin
+        sqrt = math.sqrt
+        omega_sum = 0.0
         for i in range(self.n):
             target = motor_cmd[i] * omega_max
             w = omega[i]
@@ -151,18 +153,16 @@ class Vehicle:
             if w < 0.0:
                 w = 0.0
             omega[i] = w
+            omega_sum += w
             t = kt * w * w
             thrust += t
             tx -= py[i] * t
             ty += px[i] * t
             tz -= spin[i] * kq * w * w
-            power += t * math.sqrt(t)
+            power += t * sqrt(t)
         fz_body = -thrust
         fx_body = 0.0
         fy_body = 0.0
-        omega_sum = 0.0
-        for i in range(self.n):
-            omega_sum += omega[i]
         if self.tri:
             # Tail thrust tilted by the servo: a sideways force at the tail gives yaw.
             t_tail = kt * omega[0] * omega[0]
