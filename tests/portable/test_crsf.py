@@ -4,7 +4,7 @@ Plain asserts: runs under pytest and under MicroPython (tests/portable/mprun.py)
 """
 
 from hoverfly.protocols import crsf
-from hoverfly.protocols.rxcodec import make_decoder
+from hoverfly.protocols.rxfactory import make_decoder
 
 RC_CENTRE = bytes.fromhex("C8 18 16 E0 03 1F F8 C0 07 3E F0 81 0F 7C E0 03 1F F8 C0 07 3E F0 81 0F 7C AD")
 RC_MIXED = bytes.fromhex("C8 18 16 AC 98 38 F8 7E 01 70 FA A0 8F BB 00 F8 3F 2B C0 37 71 F0 B1 02 7C A4")

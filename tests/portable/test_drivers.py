@@ -16,6 +16,7 @@ if _tests not in sys.path:
 
 from hoverfly.drivers import imu as imu_mod  # noqa: E402
 from hoverfly.drivers.bno055 import BNO055, MODE_IMU, roll_pitch_from_quaternion  # noqa: E402
+from hoverfly.drivers.detect import detect_i2c  # noqa: E402
 from hoverfly.drivers.icm42688 import ICM42688  # noqa: E402
 from hoverfly.drivers.lsm9ds1 import LSM9DS1  # noqa: E402
 from hoverfly.drivers.mpu6050 import MPU6050  # noqa: E402
@@ -355,9 +356,9 @@ def test_lsm9ds1_without_magnetometer_still_configures():
 
 def test_detect_i2c_finds_the_chip_on_the_bus():
     bus = FakeI2C(BNO055Model(address=0x29))
-    found = imu_mod.detect_i2c(bus, Orientation(), delay_us=_no_wait)
+    found = detect_i2c(bus, Orientation(), delay_us=_no_wait)
     assert found is not None and found.name == "bno055" and found.address == 0x29
-    assert imu_mod.detect_i2c(FakeI2C(), Orientation(), delay_us=_no_wait) is None
+    assert detect_i2c(FakeI2C(), Orientation(), delay_us=_no_wait) is None
 
 
 # --- faults -----------------------------------------------------------------------------

@@ -3,7 +3,7 @@
 Takes what the board's receiver input delivered since the last call (UART bytes through
 `board.read_rx`, or pin edges through `board.read_rx_edges` for PPM/PWM) and feeds
 the protocol codec chosen by the `rx_provider` parameter (crsf | sbus | ibus | ppm | pwm,
-built by `rxcodec.make_decoder`). Gives `channels_us` (16 channels, µs) whenever a new
+built by `rxfactory.make_decoder`). Gives `channels_us` (16 channels, µs) whenever a new
 valid frame arrived, and the link watch: `last_frame_us`, `frames`, `errors`,
 `frame_rate_hz`, `link_quality_pct`, `rssi_dbm`, `rx_failsafe`. On CRSF it also sends
 telemetry back on the same UART (`board.write_rx`): battery, attitude and flight
@@ -31,7 +31,8 @@ from array import array
 
 from hoverfly.compat import const, ticks_add, ticks_diff
 from hoverfly.core.arming import ARM_SWITCH
-from hoverfly.protocols.rxcodec import CHANNELS, make_decoder
+from hoverfly.protocols.rxcodec import CHANNELS
+from hoverfly.protocols.rxfactory import make_decoder
 
 _READ_BYTES = const(64)  # one read: two CRSF RC frames and a link-statistics frame fit
 _READS_MAX = const(4)  # bounded: a chattering UART cannot hold the task

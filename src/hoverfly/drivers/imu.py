@@ -213,24 +213,3 @@ class Imu:
         self._bias16_z = bz16
         self._orientation.rotate_scaled(bx16, by16, bz16, self._gyro_k16, self.gyro_bias_rad_s)
 
-
-def detect_i2c(bus, orientation, delay_us=None):
-    """Boot helper: the first known IMU answering on an I2C bus, configured driver or None.
-
-    Tries MPU-6050 (0x68, 0x69), LSM9DS1 (AG 0x6B/0x6A), BNO055 (0x28, 0x29) with each
-    driver's default configuration. Imports the drivers lazily (boot only).
-    """
-    from hoverfly.drivers.bno055 import BNO055
-    from hoverfly.drivers.lsm9ds1 import LSM9DS1
-    from hoverfly.drivers.mpu6050 import MPU6050
-
-    candidates = (
-        (MPU6050, 0x68), (MPU6050, 0x69),
-        (LSM9DS1, 0x6B), (LSM9DS1, 0x6A),
-        (BNO055, 0x28), (BNO055, 0x29),
-    )
-    for cls, address in candidates:
-        imu = cls(bus, orientation, address=address, delay_us=delay_us)
-        if imu.probe() and imu.configure():
-            return imu
-    return None

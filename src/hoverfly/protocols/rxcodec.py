@@ -1,10 +1,10 @@
-"""What every receiver codec shares: the streaming framer, the 11-bit channel packing, the factory.
+"""What every receiver codec shares: the streaming framer and the 11-bit channel packing.
 
 Takes receiver bytes in any chunking (`feed(data, n=-1)`) and hands each complete,
 length-plausible candidate frame to the protocol's `_take`, which checks it and decodes
 values into preallocated arrays (`channels_us`, `channels_raw`, 16 channels each).
-Gives the receiver task one interface for CRSF, SBUS and iBUS (`make_decoder` also builds
-the PPM/PWM edge decoders of `pulses.py`). It sits at the start of the receiver task:
+Gives the receiver task one interface for CRSF, SBUS and iBUS (rxfactory.py's `make_decoder`
+builds them, and the PPM/PWM edge decoders of `pulses.py`, by name). It sits at the start of the receiver task:
 board.rx bytes -> decoder -> rc input stage.
 
 Framing rule, the same for all serial protocols: hunt for a sync byte (each skipped byte
@@ -479,31 +479,3 @@ def fill_raw(channels, raw, raw_of_us, pad_raw):
     for c in range(CHANNELS):
         raw[c] = raw_of_us(channels[c]) if c < n else pad_raw
 
-
-def make_decoder(protocol, channels=8):
-    """A fresh decoder by name: "crsf", "sbus", "ibus", "ppm" or "pwm" (`channels` inputs).
-
-    Imports only the module asked for, so a Pico carries one protocol's tables.
-    An unknown name is a configuration mistake and raises ValueError.
-    """
-    if protocol == "crsf":
-        from hoverfly.protocols.crsf import CrsfDecoder
-
-        return CrsfDecoder()
-    if protocol == "sbus":
-        from hoverfly.protocols.sbus import SbusDecoder
-
-        return SbusDecoder()
-    if protocol == "ibus":
-        from hoverfly.protocols.ibus import IbusDecoder
-
-        return IbusDecoder()
-    if protocol == "ppm":
-        from hoverfly.protocols.pulses import PpmCapture
-
-        return PpmCapture()
-    if protocol == "pwm":
-        from hoverfly.protocols.pulses import PwmCapture
-
-        return PwmCapture(channels)
-    raise ValueError("unknown receiver protocol %r (one of crsf, sbus, ibus, ppm, pwm)" % (protocol,))

@@ -259,7 +259,7 @@ class Rp2Board(Board):
                                   freq=P.I2C_FREQ_HZ)
                 self._i2c = i2c
                 if kind == "auto":
-                    from hoverfly.drivers.imu import detect_i2c
+                    from hoverfly.drivers.detect import detect_i2c
 
                     imu = detect_i2c(i2c, orient, delay)
                     ok = imu is not None
