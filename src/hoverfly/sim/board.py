@@ -20,6 +20,7 @@ from hoverfly.protocols.pulsetrain import ReplyPulseDecoder, render_analog, rend
 from hoverfly.sim.esc import SimEsc, SimServo
 from hoverfly.sim.regmodels import MPU6050Model
 from hoverfly.sim.rxlink import RxLink
+from hoverfly.sim.storagefile import load_storage_file, save_storage_file
 
 _TELEMETRY_KEEP = 65536  # bytes of CRSF telemetry kept for tests and tools
 
@@ -208,13 +209,9 @@ class SimBoard(SampledBoard):
     serial = None  # a sim.server.TcpPorts (or any object with read(port, buf) / write(port, data, n))
 
     def load_storage(self):
-        from hoverfly.sim.server import load_storage_file
-
         return load_storage_file(self.storage_path)
 
     def save_storage(self, image):
-        from hoverfly.sim.server import save_storage_file
-
         return save_storage_file(self.storage_path, image)
 
     def serial_read(self, port, buf):

@@ -13,7 +13,6 @@ restarts the simulated controller as a board would: a new flight from the stored
 craft back on the ground, the TCP listeners and their clients kept.
 """
 
-import os
 import socket
 
 from hoverfly.core.board import SERIAL_CONFIG, SERIAL_MAINT
@@ -26,28 +25,6 @@ DEFAULT_MSP_PORT = 5761
 DEFAULT_MAINT_PORT = 5762
 OUT_LIMIT = 256 * 1024  # reply bytes held for a slow client before new ones are dropped
 _FOREVER_S = 10 * 365 * 24 * 3600.0
-
-
-def load_storage_file(path):
-    if path is None or not os.path.exists(path):
-        return None
-    with open(path, "rb") as fh:
-        return fh.read()
-
-
-def save_storage_file(path, image):
-    """Write the image in place: bytes that did not change are rewritten with their old value, so a
-    write cut anywhere leaves the untouched slot whole (as flash would)."""
-    if path is None:
-        return False
-    mode = "r+b" if os.path.exists(path) else "wb"
-    with open(path, mode) as fh:
-        fh.seek(0)
-        fh.write(image)
-        fh.truncate(len(image))
-        fh.flush()
-        os.fsync(fh.fileno())
-    return True
 
 
 class TcpPorts:
