@@ -116,6 +116,10 @@ def main():
     here = os.path.dirname(os.path.abspath(__file__))
     root = os.path.dirname(here)
     me = os.path.abspath(__file__)
+    sys.path.insert(0, os.path.join(root, "src"))
+    from hoverfly.fastgen import generate_all
+
+    generate_all()  # the VM flies src/'s generated viper stages (docs/fastpass.md)
     result = {"passes": PASSES}
     mp = micropython_vm()
     runtimes = [("cpython", [sys.executable, me], dict(os.environ, PYTHONHASHSEED="0"))]

@@ -13,6 +13,7 @@ failsafe at 100 Hz, battery, LED), timed on a flight of its own; loop_us_per_pas
 words, commander included (Betaflight's gyro/PID loop, its tasks apart).
 
     python3 bench/core_loop.py
+    python3 -m hoverfly.fastgen   # first: the generated viper stages the VM imports (docs/fastpass.md)
     MICROPYPATH=src:.frozen micropython -X heapsize=512k bench/core_loop.py
     MICROPYPATH=src:.frozen micropython -X heapsize=512k bench/core_loop.py --rx-core1
 

@@ -7,6 +7,12 @@ sys.path.insert(0, HERE)
 
 import pytest  # noqa: E402
 
+from hoverfly.fastgen import generate_all  # noqa: E402
+
+# The viper stages the MicroPython VMs import from src/ are generated from the fixed-point Python (never
+# committed, docs/fastpass.md): written here when their source changed.
+generate_all()
+
 
 @pytest.fixture(scope="session")
 def unix_bundle(tmp_path_factory):

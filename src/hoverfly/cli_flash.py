@@ -81,6 +81,9 @@ def build(out_dir, chip="rp2040", mpy_cross=None, native=NATIVE_MODULES):
     """Compile the bundle into out_dir, the modules in `native` (paths as bundle_sources gives them)
     to machine code; returns the list of .mpy files written."""
     exe = _tool("mpy-cross", mpy_cross)
+    from hoverfly.fastgen import generate_all
+
+    generate_all()  # the viper stages generated from the fixed-point Python (docs/fastpass.md), if changed
     out_dir = pathlib.Path(out_dir)
     lib = out_dir / "lib" / "hoverfly"
     written = []

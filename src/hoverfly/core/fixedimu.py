@@ -4,9 +4,10 @@ Takes the float filter stages' configured gains (core/filters.py `GyroFilter`, `
 the pass's sample arrays; gives the filtered gyro and accelerometer in the same arrays as the float
 stages, with no float object made on MicroPython. Every float result there is a heap object: the
 two filters made 39 of them a pass (1.2 kB on the 64-bit VM, bench/core_stages.py), a third of the
-pass's allocation. `FixedImuFilter` runs the filters on small integers instead: the viper twin
-(accel/imufilter.py) on MicroPython, `filter_pass` below everywhere else (the reference, and what
-tests/portable/test_fixedimu.py holds the viper twin to, bit for bit).
+pass's allocation. `FixedImuFilter` runs the filters on small integers instead: `filter_pass` below
+is the one source of that arithmetic. On MicroPython its viper twin (accel/imufilter.py, generated
+from it by hoverfly.fastgen, docs/fastpass.md) stands in for `update`; tests/portable/test_fixedimu.py
+holds the two equal bit for bit.
 
 Chosen with the fixed rate loop (core/fixedrate.py): where `pid_math` runs the controller and
 mixer in fixed point, the IMU filters go too, for the default gyro chain only (low-pass 1 a PT1,
@@ -23,7 +24,7 @@ over k of its input: 1e-5 rad/s for the gyro's default 250 Hz, 2e-4 m/s^2 for th
 
 from array import array
 
-from hoverfly.compat import accel_module, const
+from hoverfly.compat import IS_MICROPYTHON, const
 
 # co: the gyro PT1's gain per axis, then the accelerometer PT2's stage gain per axis (Q15)
 CO_GYRO_K = const(0)
@@ -39,17 +40,23 @@ ST_SIZE = const(18)
 _ONE15 = const(32768)
 _GYRO_LIM = const(0x800000)  # 2**23: 128 rad/s in Q16
 _ACC_LIM = const(0x1000000)  # 2**24: 256 m/s^2 in Q16
+_Q16 = 65536.0
 _INV16 = 1.0 / 65536.0
 
-_viper = accel_module("imufilter")
+_viper = None
+if IS_MICROPYTHON:
+    try:  # generated from filter_pass below by hoverfly.fastgen; absent, or a port without viper: the Python runs
+        from hoverfly.accel import imufilter as _viper
+    except (ImportError, SyntaxError, NameError, ValueError):
+        pass
 HAS_ACCEL = _viper is not None
 
 
-def _dec(x, lim):
-    """A float in Q16: truncated toward 0, clamped to +-lim, NaN as 0 (accel/imufilter.py's decode)."""
+def _dec(x, scale, lim):
+    """A float times scale (Q16: 2**16) in fixed point: truncated toward 0, clamped to +-lim, NaN as 0."""
     if x != x:
         return 0
-    v = x * 65536.0
+    v = x * scale
     if v >= lim:
         return lim
     if v <= -lim:
@@ -57,21 +64,29 @@ def _dec(x, lim):
     return int(v)
 
 
+def _mul(c, x, s):
+    """c * x / 2**s rounded half up (the generated code splits x in 16-bit halves: no product passes 2**31)."""
+    if s:
+        return (c * x + (1 << (s - 1))) >> s
+    return c * x
+
+
 def _step(k, x, y):
     """One PT1 step in Q16 with a Q15 gain: y + floor((k * (x - y) + 2**14) / 2**15)."""
-    return y + ((k * (x - y) + 16384) >> 15)
+    return y + _mul(k, x - y, 15)
 
 
+# fastpass: FixedImuFilter.update co:i st:i graw:f bias:f gout:f araw:f aout:f
 def filter_pass(co, st, io):
     """One pass of both filters (the Python twin): io = (gyro raw, gyro bias, gyro out, accel raw,
     accel out), arrays of three; the outputs are written as floats."""
     graw, bias, gout, araw, aout = io
     for i in range(3):
-        y = _step(co[CO_GYRO_K + i], _dec(graw[i], _GYRO_LIM) - _dec(bias[i], _GYRO_LIM), st[S_GYRO + i])
+        y = _step(co[CO_GYRO_K + i], _dec(graw[i], _Q16, _GYRO_LIM) - _dec(bias[i], _Q16, _GYRO_LIM), st[S_GYRO + i])
         st[S_GYRO + i] = y
         gout[i] = y * _INV16
         k = co[CO_ACC_K + i]
-        s1 = _step(k, _dec(araw[i], _ACC_LIM), st[S_ACC1 + i])
+        s1 = _step(k, _dec(araw[i], _Q16, _ACC_LIM), st[S_ACC1 + i])
         st[S_ACC1 + i] = s1
         y = _step(k, s1, st[S_ACC2 + i])
         st[S_ACC2 + i] = y
@@ -117,11 +132,11 @@ class FixedImuFilter:
         for i in range(3):
             f = gyro_filter.lpf1[i]._pt1
             co[CO_GYRO_K + i] = _gain(f.k)
-            st[S_GYRO + i] = _dec(f.y, _GYRO_LIM)
+            st[S_GYRO + i] = _dec(f.y, _Q16, _GYRO_LIM)
             f = accel_filter.f[i]
             co[CO_ACC_K + i] = _gain(f.k)
-            st[S_ACC1 + i] = _dec(f.s1, _ACC_LIM)
-            st[S_ACC2 + i] = _dec(f.y, _ACC_LIM)
+            st[S_ACC1 + i] = _dec(f.s1, _Q16, _ACC_LIM)
+            st[S_ACC2 + i] = _dec(f.y, _Q16, _ACC_LIM)
         if HAS_ACCEL:
             tab = self._tab
             _viper.bind(tab, 0, co)

@@ -106,6 +106,10 @@ def firmware_command(firmware, micropython=None, heap=DEFAULT_HEAP, bundle=None)
     env = dict(os.environ)
     if firmware == "micropython":
         exe = find_micropython(micropython)
+        if bundle is None:  # the VM imports src/: its generated viper stages must be current (docs/fastpass.md)
+            from hoverfly.fastgen import generate_all
+
+            generate_all()
         # MICROPYPATH replaces the default path: keep .frozen (the VM's built-in modules).
         env["MICROPYPATH"] = "%s:.frozen" % (SRC_DIR if bundle is None else bundle_lib(bundle))
         return [exe, "-X", "heapsize=" + heap, "-m", "hoverfly.boards.bridge_fw"], env

@@ -1,0 +1,223 @@
+"""The fast pass generator (hoverfly.fastgen): what it writes runs on MicroPython, 64 and 32 bits, and gives
+the Python kernel's bits; what it cannot map is refused with the line.
+
+The stages' own twin tests (tests/portable/test_fixed*.py) hold the generated stages to their Python; here a
+small stage written for the purpose drives every construct of the dialect to its edges: the split product at
+constant and run-time shifts, the float32 decode at its clamps, the encode's rounding, a helper with early
+returns, loops and elifs whose tests need a product first.
+"""
+
+import pathlib
+import subprocess
+
+import pytest
+
+from hoverfly import fastgen
+from test_micropython import MICROPYTHON, MPY_CROSS
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+SRC = ROOT / "src"
+VM32 = ROOT.parent / "shared" / "tools" / "micropython-i686"
+
+DEMO = '''
+from array import array
+
+from hoverfly.compat import const
+
+_LIM = const(0x800000)
+_BIG = const(0x40000000)
+_Q16 = 65536.0
+_Q8 = 256.0
+_INV16 = 1.0 / 65536.0
+
+
+def _mul(c, x, s):
+    if s:
+        return (c * x + (1 << (s - 1))) >> s
+    return c * x
+
+
+def _dec(x, scale, lim):
+    if x != x:
+        return 0
+    v = x * scale
+    if v >= lim:
+        return lim
+    if v <= -lim:
+        return -lim
+    return int(v)
+
+
+def _clamp(v, lim):
+    if v > lim:
+        return lim
+    if v < -lim:
+        return -lim
+    return v
+
+
+# fastpass: Demo.update co:i st:i fin:f fout:f
+def demo_pass(co, st, io, n):
+    fin, fout = io
+    mul = _mul
+    lo = _BIG
+    for k in range(n):
+        x = _dec(fin[k], _Q16, _LIM)
+        st[k] = x
+        st[8 + k] = _dec(fin[k], _Q8, 1000)
+        st[16 + k] = mul(co[0], st[8 + k], 0) + mul(co[1], x, 8)
+        st[24 + k] = mul(co[1], x, 16) + mul(co[0], x, 20)
+        st[32 + k] = _clamp(mul(co[1], x, co[2 + k]), co[10])
+        if x < lo:
+            lo = x
+        if mul(co[1], x, 15) > 100:
+            st[40 + k] = 1
+        elif mul(co[1], x, 14) < -100:
+            st[40 + k] = -1
+        else:
+            st[40 + k] = 0
+        st[48 + k] += 1
+        fout[k] = st[16 + k] * _INV16  # past 2**24: the encode rounds
+        fout[8 + k] = st[32 + k] * _INV16
+    return lo
+
+
+class Demo:
+    def __init__(self):
+        self.co = array("i", [0] * 12)
+        self.st = array("i", [0] * 64)
+        self.fin = array("f", [0.0] * 8)
+        self.fout = array("f", [0.0] * 16)
+        self._tab = array("i", [0] * 10)
+
+    def update(self, n):
+        r = demo_pass(self.co, self.st, (self.fin, self.fout), n)
+        self.lo = r + 1
+'''
+
+DRIVER = '''
+import sys
+from array import array
+import demo
+import demo_fast
+from hoverfly.accel.addr import bind
+
+def lcg():
+    s = [12345]
+    def nxt():
+        s[0] = (s[0] * 1103515245 + 12345) & 0x7FFFFFFF
+        return s[0]
+    return nxt
+
+rnd = lcg()
+a = demo.Demo()
+b = demo.Demo()
+bind(b._tab, 0, b.co)
+bind(b._tab, 1, b.st)
+bind(b._tab, 2, b.fin)
+bind(b._tab, 3, b.fout)
+bind(b._tab, 4, demo_fast.LOG2)
+odd = (0.0, -0.0, 1e-9, 127.99999, 128.0, -128.0, 1e30, -1e30, float("inf"), float("-inf"), float("nan"),
+       3.9, -3.9, 0.5, 2.0 ** -16, 2.0 ** -17, 255.5, 1000.0 / 256.0, 4.0)
+bad = 0
+for n in range(4000):
+    for k in range(12):
+        v = (rnd() & 0x7FFF) - 0x4000
+        if k >= 2 and k < 10:
+            v = 8 + rnd() % 23  # the run-time shifts
+        if k == 10:
+            v = rnd() & 0x7FFFFF
+        a.co[k] = b.co[k] = v
+    for k in range(8):
+        r = rnd()
+        if r & 3 == 0:
+            x = odd[r % len(odd)]
+        else:
+            x = ((r & 0xFFFFFF) - 0x800000) / float(1 << (r % 20))
+        a.fin[k] = b.fin[k] = x
+    demo.Demo.update(a, 8)
+    demo_fast.update(b, 8)
+    if a.lo != b.lo:
+        bad += 1
+    for k in range(64):
+        if a.st[k] != b.st[k]:
+            bad += 1
+            if bad < 5:
+                print("st", n, k, a.st[k], b.st[k], [a.fin[j] for j in range(8)], list(a.co))
+    for k in range(16):
+        if a.fout[k] != b.fout[k]:
+            bad += 1
+            if bad < 5:
+                print("fout", n, k, a.fout[k], b.fout[k])
+print("mismatches", bad)
+'''
+
+
+@pytest.fixture(scope="module")
+def demo_dir(tmp_path_factory):
+    d = tmp_path_factory.mktemp("fastgen-demo")
+    (d / "demo.py").write_text(DEMO)
+    (d / "demo_fast.py").write_text(fastgen.generate_source(DEMO, "demo.py"))
+    (d / "driver.py").write_text(DRIVER)
+    return d
+
+
+@pytest.mark.parametrize("vm", ["64-bit", "32-bit"])
+def test_the_generated_code_gives_the_python_kernels_bits_on_64_and_32_bits(demo_dir, vm):
+    exe = MICROPYTHON if vm == "64-bit" else (str(VM32) if VM32.exists() else None)
+    if exe is None:
+        pytest.skip("no %s MicroPython VM" % vm)
+    res = subprocess.run([exe, "-X", "heapsize=4m", str(demo_dir / "driver.py")], capture_output=True, text=True,
+                         timeout=300, env={"MICROPYPATH": "%s:%s:.frozen" % (demo_dir, SRC)})
+    assert res.returncode == 0, res.stderr[-2000:]
+    assert res.stdout.strip().endswith("mismatches 0"), res.stdout[-2000:]
+
+
+def test_a_constant_of_2_30_is_built_at_run_time_not_written_as_a_literal(demo_dir):
+    text = (demo_dir / "demo_fast.py").read_text()
+    assert "(_one << 30)" in text
+    assert "1073741824" not in text
+
+
+def _refused(body, why):
+    src = DEMO.replace("    return lo\n", body + "    return lo\n", 1)
+    with pytest.raises(fastgen.FastGenError, match=why):
+        fastgen.generate_source(src)
+
+
+def test_what_the_generator_cannot_map_is_refused_with_the_reason():
+    _refused("    lo = fin[0]\n", "read only through _dec")
+    _refused("    fout[0] = lo * 0.3\n", "power of two")
+    _refused("    lo = lo * 0.5\n", "float constant")
+    _refused("    for k in range(3):\n        continue\n", "continue")
+    _refused("    lo = undefined_name\n", "unknown name")
+    _refused("    lo = len(co)\n", "not in the dialect")
+    _refused("    lo = _dec(fin[0], 3.0, 5)\n", "power of two")
+
+
+def test_every_stage_is_generated_current_and_compiles_for_64_and_32_bit_machine_code(tmp_path):
+    fastgen.generate_all()
+    for name in fastgen.STAGES:
+        assert fastgen.is_current(name), name
+        if MPY_CROSS is None:
+            continue
+        for arch in ("x64", "x86", "armv6m"):
+            out = tmp_path / ("%s-%s.mpy" % (name, arch))
+            res = subprocess.run([MPY_CROSS, "-march=" + arch, "-o", str(out), str(fastgen.generated_path(name))],
+                                 capture_output=True, text=True)
+            assert res.returncode == 0, (name, arch, res.stderr)
+
+
+def test_a_changed_source_is_generated_again():
+    name = next(iter(fastgen.STAGES))
+    path = fastgen.generated_path(name)
+    path.write_text(path.read_text().replace(fastgen.HASH_LINE, fastgen.HASH_LINE + "0"))
+    assert not fastgen.is_current(name)
+    assert fastgen.generate_all() == [path]
+    assert fastgen.is_current(name)
+
+
+def test_the_generated_files_are_not_committed():
+    res = subprocess.run(["git", "check-ignore", "-q", str(fastgen.generated_path(next(iter(fastgen.STAGES))))],
+                         cwd=ROOT)
+    assert res.returncode == 0
