@@ -1,25 +1,150 @@
-"""Simulator real-time factor: the 5-inch hover at a 1 kHz loop, flight core included.
+"""Simulator real-time factor: the 5-inch hover at a 1 kHz loop, wire, ESCs and IMU noise included.
 
-Prints one JSON object: {airframe, scenario, loop_hz, sim_time_s, wall_time_s, realtime_factor,
-core_us_per_pass}. Best of three runs.   python3 bench/sim_rtf.py
+Prints one JSON object:
+- realtime_factor (simulated s per wall s of the flight loop, best of --runs), realtime_factor_cpu
+  (per CPU s of this process: steadier when other work shares the host), steps_per_s, setup_s (making
+  the flight: airframe, parameters, the IMU's noise table; it counts in a sweep of short flights);
+- shares: where one flight's time goes, each part timed around its own calls in a separate run
+  (the timer's own cost taken off): the flight core (Flight.step without the board's wire models),
+  physics, IMU model, receiver wire, ESC model (DShot decode), pilot, and the runner's loop and judging;
+- profile_shares: the same flight under cProfile, its own time per area (cProfile adds a fixed cost
+  per call, so it overstates areas made of many small calls: the timed shares are the measure).
+
+    .venv/bin/python bench/sim_rtf.py [--scenario hover] [--airframe 5inch] [--runs 3] [--no-profile]
 """
 
+import argparse
+import cProfile
 import json
+import pstats
+import time
 
-from hoverfly.sim.runner import fly
+from hoverfly.sim.runner import SimRun, fly
+
+_AREAS = (  # path part -> area, first match wins
+    ("/core/", "flight core"),
+    ("/protocols/dshot", "flight core"),  # the core's output codec; the ESC's decode is in sim/esc.py
+    ("/protocols/rxcodec", "flight core"),  # the core's receiver parsing
+    ("/protocols/crsf", "receiver wire"),
+    ("/compat", "flight core"),
+    ("/sim/physics", "physics"),
+    ("/sim/sensors", "imu model"),
+    ("/sim/rxlink", "receiver wire"),
+    ("/sim/esc", "esc model"),
+    ("/sim/board", "esc model"),
+    ("/sim/pilot", "pilot"),
+    ("/sim/runner", "runner loop and judging"),
+)
+
+
+def _area(filename, name):
+    for part, area in _AREAS:
+        if part in filename:
+            return area
+    if filename == "~":
+        return "builtins"
+    return "other"
+
+
+def profile_shares(scenario, airframe):
+    prof = cProfile.Profile()
+    prof.enable()
+    fly(scenario, airframe, seed=1)
+    prof.disable()
+    totals = {}
+    for (filename, _line, name), (_cc, _nc, tottime, _ct, _callers) in pstats.Stats(prof).stats.items():
+        a = _area(filename, name)
+        totals[a] = totals.get(a, 0.0) + tottime
+    whole = sum(totals.values()) or 1.0
+    return {a: round(100.0 * t / whole, 1) for a, t in sorted(totals.items(), key=lambda x: -x[1])}
+
+
+def timed_shares(scenario, airframe):
+    """One flight with a timer around each part's calls; the timer's own cost measured and removed."""
+    perf = time.perf_counter
+    acc = {}
+    calls = {}
+
+    def wrap(obj, name, key):
+        f = getattr(obj, name)
+
+        def timed(*a):
+            t0 = perf()
+            r = f(*a)
+            acc[key] = acc.get(key, 0.0) + perf() - t0
+            calls[key] = calls.get(key, 0) + 1
+            return r
+
+        setattr(obj, name, timed)
+
+    class _Probe:
+        def nothing(self):
+            return None
+
+    probe = _Probe()
+    wrap(probe, "nothing", "probe")
+    for _ in range(50000):
+        probe.nothing()
+    cost = acc.pop("probe") / calls.pop("probe")
+
+    run = SimRun(airframe, scenario, 1)
+    b = run.board
+    wrap(run.flight, "step", "flight.step")
+    wrap(b, "_send_lines", "esc model")
+    wrap(b.rx_link, "advance", "receiver wire")
+    wrap(b.rx_link, "take_bytes", "receiver wire")
+    wrap(run.vehicle, "step", "physics")
+    wrap(run.vehicle, "euler_rad", "pilot")  # the attitude the pilot sees
+    wrap(run.imu, "sample", "imu model")
+    wrap(run.pilot, "update", "pilot")
+    t0 = perf()
+    r = run.run()
+    whole = perf() - t0
+    net = {k: acc[k] - cost * calls[k] for k in acc}
+    # the wire models run inside Flight.step (the board's read_rx / write_motors)
+    net["flight core"] = net.pop("flight.step") - net["esc model"] - net["receiver wire"]
+    timed = sum(net.values())
+    net["runner loop and judging"] = whole - timed - cost * sum(calls.values())
+    steps = round(r["sim_time_s"] * r["loop_hz"])
+    return ({k: round(100.0 * v / whole, 1) for k, v in sorted(net.items(), key=lambda x: -x[1])},
+            {k: round(v / steps * 1e6, 2) for k, v in sorted(net.items(), key=lambda x: -x[1])})
 
 
 def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--scenario", default="hover")
+    ap.add_argument("--airframe", default="5inch")
+    ap.add_argument("--runs", type=int, default=3)
+    ap.add_argument("--no-profile", action="store_true")
+    args = ap.parse_args()
     best = None
-    for _ in range(3):
-        r = fly("hover", "5inch", seed=1)
+    best_cpu = 0.0
+    setup_s = 1e9
+    for _ in range(args.runs):
+        w0 = time.perf_counter()
+        run = SimRun(args.airframe, args.scenario, 1)
+        setup_s = min(setup_s, time.perf_counter() - w0)
+        c0 = time.process_time()
+        r = run.run()
+        cpu = time.process_time() - c0
+        best_cpu = max(best_cpu, r["sim_time_s"] / cpu)
         if best is None or r["realtime_factor"] > best["realtime_factor"]:
             best = r
-    print(json.dumps({
+    shares, us_per_step = timed_shares(args.scenario, args.airframe)
+    out = {
         "airframe": best["airframe"], "scenario": best["scenario"], "loop_hz": best["loop_hz"],
         "sim_time_s": best["sim_time_s"], "wall_time_s": best["wall_time_s"],
-        "realtime_factor": best["realtime_factor"], "core_us_per_pass": best["loop"]["mean_us"],
-    }))
+        "realtime_factor": best["realtime_factor"],
+        "realtime_factor_cpu": round(best_cpu, 2),
+        "steps_per_s": round(best["sim_time_s"] * best["loop_hz"] / best["wall_time_s"]),
+        "core_us_per_pass": best["loop"]["mean_us"],
+        "setup_s": round(setup_s, 3),  # airframe, parameters, the IMU's noise table: once per flight
+        "shares_pct": shares,
+        "us_per_step": us_per_step,
+    }
+    if not args.no_profile:
+        out["profile_shares_pct"] = profile_shares(args.scenario, args.airframe)
+    print(json.dumps(out))
 
 
 if __name__ == "__main__":
