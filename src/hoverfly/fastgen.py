@@ -24,6 +24,7 @@ PACKAGE = pathlib.Path(__file__).resolve().parent
 # the generated module (hoverfly/accel/<name>.py) -> the stage module it is generated from
 STAGES = {
     "imufilter": "hoverfly.core.fixedimu",
+    "rate": "hoverfly.core.fixedrate",
 }
 DIRECTIVE = "# fastpass:"
 HASH_LINE = "# fastgen source sha256: "
@@ -199,6 +200,8 @@ class Generator:
         v = self.const_value(node, scope)
         if v is not None:
             return self.literal(v, node)
+        if isinstance(node, ast.Constant) and isinstance(node.value, bool):
+            return repr(node.value)
         if isinstance(node, ast.Name):
             kind = scope.names.get(node.id)
             if kind is None:
@@ -221,8 +224,8 @@ class Generator:
         if isinstance(node, ast.Compare):
             if len(node.ops) != 1 or type(node.ops[0]) not in _CMPOPS:
                 _fail(node, "a comparison is one of < <= > >= == != between two values")
-            return "(%s %s %s)" % (self.expr(node.left, scope), _CMPOPS[type(node.ops[0])],
-                                   self.expr(node.comparators[0], scope))
+            return "(%s %s %s)" % (self.operand(node.left, scope), _CMPOPS[type(node.ops[0])],
+                                   self.operand(node.comparators[0], scope))
         if isinstance(node, ast.BoolOp):
             op = " and " if isinstance(node.op, ast.And) else " or "
             return "(%s)" % op.join(self.expr(v, scope) for v in node.values)
@@ -243,6 +246,14 @@ class Generator:
             if fn in self.functions:
                 return self.inline(self.functions[fn], node, scope)
         _fail(node, "%s is not in the dialect (docs/fastpass.md)" % ast.unparse(node))
+
+    def operand(self, node, scope):
+        """A comparison's operand: a truth value as an int (viper compares no two bools)."""
+        text = self.expr(node, scope)
+        truth = isinstance(node, (ast.Compare, ast.BoolOp))
+        if truth or (isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.Not)):
+            return "int(%s)" % text
+        return text
 
     def resolve_function(self, name, scope):
         kind = scope.names.get(name)
@@ -594,12 +605,23 @@ class Generator:
         kparams = [a.arg for a in kernel.args.args]
         array_names = set(a for a, _ in self.arrays)
         called = False
+        # the method's own locals it hands the kernel as numbers are ints from their first assignment (viper
+        # does no arithmetic between an object and an int)
+        int_locals = set()
+        for s in method.body:
+            call, _ = _kernel_call(s, self.kernel)
+            if call is not None:
+                int_locals = {a.id for a in call.args if isinstance(a, ast.Name)} - set(args)
         for s in method.body:
             if _is_docstring(s):
                 continue
             call, target = _kernel_call(s, self.kernel)
             if call is None:
-                self.emit(ast.unparse(_Folder(self.consts).visit(s)).replace("\n", "\n" + "    " * self.depth))
+                s = _Folder(self.consts).visit(s)
+                if isinstance(s, ast.Assign) and len(s.targets) == 1 and isinstance(s.targets[0], ast.Name) \
+                        and s.targets[0].id in int_locals:
+                    s.value = ast.Call(ast.Name("int", ast.Load()), [s.value], [])
+                self.emit(ast.unparse(s).replace("\n", "\n" + "    " * self.depth))
                 continue
             if called or len(call.args) != len(kparams):
                 _fail(s, "the method calls the kernel once, with every argument")
@@ -609,7 +631,9 @@ class Generator:
                     continue
                 if not _only_arrays(kernel, p, array_names):
                     out = self.fresh_kernel(p, scope)
-                    self.emit("%s = int(%s)" % (out, ast.unparse(_Folder(self.consts).visit(a))))
+                    text = ast.unparse(_Folder(self.consts).visit(a))
+                    self.emit(("%s = %s" if isinstance(a, ast.Name) and a.id in int_locals else "%s = int(%s)")
+                              % (out, text))
                     scope.names[p] = ("local", out)
             result = None
             if target is not None:

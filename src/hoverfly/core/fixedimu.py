@@ -47,7 +47,7 @@ _viper = None
 if IS_MICROPYTHON:
     try:  # generated from filter_pass below by hoverfly.fastgen; absent, or a port without viper: the Python runs
         from hoverfly.accel import imufilter as _viper
-    except (ImportError, SyntaxError, NameError, ValueError):
+    except (ImportError, SyntaxError, NameError, ValueError, TypeError):  # TypeError: ViperTypeError
         pass
 HAS_ACCEL = _viper is not None
 

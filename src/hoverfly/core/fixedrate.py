@@ -1,9 +1,10 @@
 """The rate loop in fixed point: the controller's PIDs and the mixer as integers (zero allocation).
 
 On MicroPython every float result is a new heap object; the controller and mixer made about 4.3 kB
-of them a pass (bench/core_stages.py). `FixedRate` runs the same arithmetic on small integers: the
-viper twin of its `update` (accel/rate.py) on MicroPython, `rate_pass` below everywhere else (the
-reference, and what tests/portable/test_fixedrate.py holds the viper twin to, bit for bit). The float stages
+of them a pass (bench/core_stages.py). `FixedRate` runs the same arithmetic on small integers:
+`rate_pass` below is its one source. On MicroPython its viper twin (accel/rate.py, generated from it by
+hoverfly.fastgen, docs/fastpass.md) stands in for `update`; tests/portable/test_fixedrate.py holds the
+two equal bit for bit. The float stages
 (core/control.py, core/pid.py, core/mixer.py) stay the reference for what the numbers mean: the
 coefficients here are worked out from their configured values, and the results agree with theirs
 within the rounding the formats below allow (the same test).
@@ -20,7 +21,7 @@ Formats (value = integer / 2**q):
   to 2**26;
 - gains and filter coefficients: a 15-bit mantissa m and a shift s, value = m / 2**s.
 A product is `floor(c * x / 2**s)` with |c| < 2**15 and |x| < 2**31; the viper twin splits x in
-16-bit halves so no partial product passes 2**31 on a 32-bit port, and every sum stays below
+16-bit halves (`_mul`) so no partial product passes 2**31 on a 32-bit port, and every sum stays below
 2**31 by the bounds above (tests/portable/test_fixedrate.py drives extreme inputs through a
 checked product). The pass's dt is clamped to 64..20000 µs (a derivative over less than 64 µs
 would need more bits; a gap over 20 ms is a stall, not a pass).
@@ -29,7 +30,7 @@ Inputs that are not numbers (NaN) read as 0, infinities as the clamp.
 
 from array import array
 
-from hoverfly.compat import accel_module, const
+from hoverfly.compat import IS_MICROPYTHON, const
 from hoverfly.core.control import MODE_ACRO, MODE_ANGLE
 from hoverfly.core.pid import RELAX_THRESHOLD_RAD_S
 
@@ -118,7 +119,12 @@ _INV24 = 1.0 / 16777216.0
 _INV26 = 1.0 / 67108864.0
 _INV15 = 1.0 / 32768.0
 
-_viper = accel_module("rate")
+_viper = None
+if IS_MICROPYTHON:
+    try:  # generated from rate_pass below by hoverfly.fastgen; absent, or a port without viper: the Python runs
+        from hoverfly.accel import rate as _viper
+    except (ImportError, SyntaxError, NameError, ValueError, TypeError):  # TypeError: ViperTypeError
+        pass
 HAS_ACCEL = _viper is not None
 
 
@@ -180,6 +186,7 @@ def _level_rate(co, st, last, angle_sp, angle, inv_dt):
     return rate
 
 
+# fastpass: FixedRate.update co:i st:i fin:f gyro:f rate:f stick:f terms:f torque:f motor:f
 def rate_pass(co, st, io, flags, dt_us):
     """One pass of the angle loop, the three rate PIDs and the mixer. io = (fin, gyro, rate, stick,
     terms, torque, motor): float arrays, read and written as core/control.py and core/mixer.py do.
