@@ -9,6 +9,7 @@ import os
 import sys
 
 from hoverfly.errors import UserError
+from hoverfly.logs.steps import step_line
 
 
 def _load(args, topics=None):
@@ -118,10 +119,10 @@ def run_report(args):
     out = _out_dir(args, "_report")
     r = _writing(out, write_report, log, out)
     print(r["index"])
-    for axis, st in r["steps"].items():
-        if st:
-            print("  step response %s: rise %s ms, overshoot %s %%, delay %s ms (%d windows)"
-                  % (axis, st["rise_ms"], st["overshoot_pct"], st["delay_ms"], st["windows"]))
+    for st in r["steps"]:
+        print("  " + step_line(st))
+    if not r["steps"]:
+        print("  no held stick step in the log: no step response measured")
     return 0
 
 
@@ -138,15 +139,21 @@ def run_replay(args):
     paths = _writing(out, plot_replay, result, out, log.motor_count())
     d = result.to_dict()
     d["plots"] = paths
+    d["steps"] = result.steps(log)
+    d["open_loop"] = True
     if args.json:
         json.dump(d, sys.stdout)
         sys.stdout.write("\n")
         return 0
     changes = ", ".join("%s=%s" % (n, v) for n, v in overrides) or "the logged parameters"
     print("%s: replayed %d passes with %s" % (args.file, d["passes"], changes))
+    print("  open loop: the craft moves as logged, whatever the new outputs would have done; the figures below "
+          "are what the controller would have commanded")
     print("  %-14s %12s %12s %12s" % ("signal", "RMS logged", "RMS replay", "max |diff|"))
     for k in sorted(d["max_abs_diff"]):
         print("  %-14s %12.6f %12.6f %12.3g" % (k, d["rms_old"][k], d["rms_new"][k], d["max_abs_diff"][k]))
+    for st in d["steps"]:
+        print("  logged response, replayed set point: " + step_line(st))
     for p in paths:
         print(p)
     return 0

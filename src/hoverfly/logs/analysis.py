@@ -1,11 +1,12 @@
-"""Tuning numbers from a flight log (numpy only): step response, gyro spectrum, spectrogram vs throttle.
+"""Tuning numbers from a flight log (numpy): the commanded steps' responses, gyro spectrum, spectrogram vs throttle.
 
-Step response, PIDtoolbox-style: the flight is cut into overlapping windows; in each window
-with enough stick activity on an axis the impulse response from the rate setpoint to the
-gyro is estimated by Wiener deconvolution (H = Y·X* / (|X|² + λ), λ a small fraction of the
-input's mean power, so frequencies the pilot never excited do not blow up), integrated into
-a step response and averaged over the windows. From the mean response: 10-90 % rise time,
-overshoot, delay to 50 % and the settled level.
+Step response: the same measurement as `hoverfly fly` (logs/steps.py), on the steps the log
+holds. A step is a stick that moved by at least MIN_STEP_US between two receiver frames and
+then held within HOLD_US for at least MIN_HOLD_S; its window ends where the stick leaves the
+hold, another stick jumps or the flight mode changes. In acro the set point is the logged
+vehicle_rates_setpoint and the response the filtered gyro (deg/s); in angle or horizon mode the
+set point is the stick times angle_limit (what the angle loop is asked for) and the response
+the attitude estimate (deg). The stick is read as the flight reads it: rc_map, deadband.
 
 Spectra: Welch-averaged amplitude spectrum of the raw gyro per axis, and a spectrogram of
 gyro amplitude against throttle (bins of the throttle, mean spectrum per bin), where motor
@@ -14,92 +15,149 @@ noise shows up as lines rising with throttle.
 
 import numpy as np
 
-WINDOW_S = 1.0
-STEP_RESPONSE_S = 0.5
-MIN_SETPOINT_DPS = 40.0  # a window counts when the setpoint moves this much (PIDtoolbox uses ~20-100)
+from hoverfly.core.rc import map_channels
+from hoverfly.logs.steps import measure_step
+
+MIN_STEP_US = 50  # a tenth of the stick's half travel in one frame: a step, not a pilot's sweep
+HOLD_US = 5  # the stick held: within the deadband's width of where it jumped to
+MIN_HOLD_S = 0.1  # shorter holds are too short to settle and are not measured
 _DEG = 180.0 / np.pi
+AXES = ("roll", "pitch", "yaw")
+_RC_CHANNELS = 18
 
 
-def wiener_step_response(setpoint, gyro, rate_hz, window_s=WINDOW_S, response_s=STEP_RESPONSE_S,
-                         min_setpoint=MIN_SETPOINT_DPS / _DEG, noise_ratio=1e-3):
-    """Mean step response of gyro to setpoint (same units). Returns dict or None when no window qualifies.
+def _stick_norm(us, deadband):
+    """core.rc.RcInput._stick on an array: µs to -1..1 with the deadband taken out."""
+    d = np.asarray(us, dtype=float) - 1500.0
+    d = np.where(d > deadband, d - deadband, np.where(d < -deadband, d + deadband, 0.0))
+    return np.clip(d / (500.0 - deadband), -1.0, 1.0)
 
-    Keys: t_s (response time axis), response (mean, settles near 1), windows (count used),
-    rise_ms (10-90 %), t90_ms, delay_ms (to 50 %), overshoot_pct, settled (mean of 0.2..0.5 s).
-    """
-    x = np.asarray(setpoint, dtype=float)
-    y = np.asarray(gyro, dtype=float)
-    n = min(len(x), len(y))
-    x = x[:n]
-    y = y[:n]
-    win = int(round(window_s * rate_hz))
-    m = int(round(response_s * rate_hz))
-    if n < win or win < 8 or m < 4 or m > win:
-        return None
-    hop = max(1, win // 4)
-    taper = np.hanning(win)
+
+def _mode_at(log, t_s):
+    """Flight mode code (control.MODE_NAMES: 0 acro, 1 angle, 2 horizon) at each time, from hoverfly_pid."""
+    pid = log.topic("hoverfly_pid")
+    if pid is None or "mode" not in pid or not len(pid["t_s"]):
+        return np.zeros(len(t_s), dtype=int)
+    j = np.clip(np.searchsorted(pid["t_s"], t_s, side="right") - 1, 0, len(pid["t_s"]) - 1)
+    return pid["mode"][j].astype(int)
+
+
+def find_steps(log):
+    """The held stick steps in the log: [(axis index, t0_s, t_end_s, mode code, stick before, stick after)]."""
+    rc = log.topic("input_rc")
+    vals = log.vector("input_rc", "values", _RC_CHANNELS)
+    if rc is None or vals is None or len(rc["t_s"]) < 3:
+        return []
+    try:
+        chmap = map_channels(int(log.param("rc_map", 12435678)))
+    except (ValueError, TypeError, IndexError):
+        chmap = map_channels(12435678)
+    t = rc["t_s"]
+    us = np.stack([vals[:, chmap[i]] for i in range(3)], axis=1).astype(float)  # roll, pitch, yaw µs
+    mode = _mode_at(log, t)
+    jumps = np.abs(np.diff(us, axis=0)) >= MIN_STEP_US  # jumps[j] : between frame j and j + 1
+    any_jump = np.nonzero(jumps.any(axis=1))[0] + 1
+    mode_change = np.nonzero(np.diff(mode) != 0)[0] + 1
+    ends = np.union1d(any_jump, mode_change)
+    db = (float(log.param("deadband", 5)), float(log.param("deadband", 5)), float(log.param("yaw_deadband", 5)))
     steps = []
-    for start in range(0, n - win + 1, hop):
-        xs = x[start : start + win]
-        if np.ptp(xs) < min_setpoint:
+    for j in any_jump:
+        for a in range(3):
+            if not jumps[j - 1, a]:
+                continue
+            held = np.abs(us[j:, a] - us[j, a]) > HOLD_US
+            leave = j + int(np.argmax(held)) if held.any() else len(t)
+            later = ends[ends > j]
+            end = min(leave, int(later[0]) if len(later) else len(t))
+            t_end = t[end] if end < len(t) else t[-1]
+            if t_end - t[j] < MIN_HOLD_S:
+                continue
+            sign = -1.0 if a == 1 else 1.0  # stick forward is nose down (FRD), as core.rc reads it
+            before = sign * float(_stick_norm(us[j - 1, a], db[a]))
+            after = sign * float(_stick_norm(us[j, a], db[a]))
+            steps.append((a, float(t[j]), float(t_end), int(mode[j]), before, after))
+    steps.sort(key=lambda s: s[1])
+    return steps
+
+
+def _window(t, y, t0, t1):
+    m = (t >= t0) & (t < t1)
+    return t[m] - t0, y[m]
+
+
+def log_steps(log, rate_t_s=None, rate_sp_rad_s=None, gyro_rad_s=None):
+    """Each held step measured with logs/steps.py: dicts as `hoverfly fly` gives (axis, mode, from, to, unit,
+    rise_ms, t90_ms, overshoot_pct, settle_ms, steady_error) plus t_s (the step's time in the log) and
+    curve (t_ms, response as a fraction of the step) for plots. The rate set point and gyro can be given
+    (replay passes its own); by default the logged ones."""
+    if rate_sp_rad_s is None:
+        sp = log.topic("vehicle_rates_setpoint")
+        g = log.vector("vehicle_angular_velocity", "xyz", 3)
+        if sp is not None and g is not None:
+            rate_t_s = log.topic("vehicle_angular_velocity")["t_s"]
+            n = min(len(rate_t_s), len(sp["t_s"]))
+            rate_t_s = rate_t_s[:n]
+            rate_sp_rad_s = np.stack([np.interp(rate_t_s, sp["t_s"], sp[a]) for a in AXES], axis=1)
+            gyro_rad_s = g[:n]
+    att = log.vector("vehicle_attitude", "q", 4)
+    euler = None
+    if att is not None:
+        from hoverfly.logs.plot import euler_deg
+
+        euler = (log.topic("vehicle_attitude")["t_s"], euler_deg(att))
+    limit_deg = float(log.param("angle_limit", 60))
+    out = []
+    for a, t0, t1, mode, before, after in find_steps(log):
+        angle = mode in (1, 2) and a < 2
+        if angle:
+            if euler is None:
+                continue
+            start, target = before * limit_deg, after * limit_deg
+            tt, y = _window(euler[0], euler[1][:, a], t0, t1)
+            unit = "deg"
+        else:
+            if rate_sp_rad_s is None:
+                continue
+            tt, y = _window(rate_t_s, gyro_rad_s[:, a] * _DEG, t0, t1)
+            _, spw = _window(rate_t_s, rate_sp_rad_s[:, a] * _DEG, t0, t1)
+            if len(spw) < 4:
+                continue
+            # The set point the controller got: before the step, and where the smoothing brought it.
+            before_i = max(0, int(np.searchsorted(rate_t_s, t0, side="left")) - 1)
+            start = float(rate_sp_rad_s[before_i, a] * _DEG)
+            target = float(np.median(spw[len(spw) // 2 :]))
+            unit = "dps"
+        if len(tt) < 4 or target == start:
             continue
-        xs = xs * taper
-        ys = y[start : start + win] * taper
-        # Zero-padded to twice the window: a linear, not circular, deconvolution.
-        X = np.fft.rfft(xs, 2 * win)
-        Y = np.fft.rfft(ys, 2 * win)
-        power = (X * np.conj(X)).real
-        lam = noise_ratio * np.mean(power) + 1e-30
-        H = Y * np.conj(X) / (power + lam)
-        impulse = np.fft.irfft(H, 2 * win)[:m]
-        step = np.cumsum(impulse)
-        steps.append(step)
-    if not steps:
-        return None
-    resp = np.mean(np.stack(steps), axis=0)
-    t = np.arange(m) / rate_hz
-    return dict(step_metrics(t, resp), t_s=t, response=resp, windows=len(steps))
-
-
-def step_metrics(t_s, resp):
-    """Rise (10-90 %), t90, delay (50 %), overshoot against the settled level (mean of 0.2..0.5 s)."""
-    t_s = np.asarray(t_s)
-    resp = np.asarray(resp)
-    tail = resp[(t_s >= 0.2) & (t_s <= 0.5)]
-    settled = float(np.mean(tail)) if len(tail) else float(resp[-1])
-    if settled == 0 or not np.isfinite(settled):
-        return {"rise_ms": None, "t90_ms": None, "delay_ms": None, "overshoot_pct": None, "settled": settled}
-    frac = resp / settled
-
-    def first(level):
-        idx = np.nonzero(frac >= level)[0]
-        return float(t_s[idx[0]]) if len(idx) else None
-
-    t10 = first(0.1)
-    t50 = first(0.5)
-    t90 = first(0.9)
-    peak = float(np.max(frac))
-    return {
-        "rise_ms": None if t10 is None or t90 is None else round((t90 - t10) * 1000.0, 1),
-        "t90_ms": None if t90 is None else round(t90 * 1000.0, 1),
-        "delay_ms": None if t50 is None else round(t50 * 1000.0, 1),
-        "overshoot_pct": round(max(0.0, peak - 1.0) * 100.0, 2),
-        "settled": round(settled, 3),
-    }
-
-
-def step_responses(log):
-    """Per axis: the step-response dict (or None) from vehicle_rates_setpoint to vehicle_angular_velocity."""
-    rate = log.rate_hz("vehicle_angular_velocity")
-    sp = log.topic("vehicle_rates_setpoint")
-    gyro = log.vector("vehicle_angular_velocity", "xyz", 3)
-    out = {}
-    for i, axis in enumerate(("roll", "pitch", "yaw")):
-        if sp is None or gyro is None or rate <= 0 or axis not in sp:
-            out[axis] = None
-            continue
-        out[axis] = wiener_step_response(sp[axis], gyro[:, i], rate)
+        r = {"axis": AXES[a], "mode": "angle" if angle else "rate", "from": round(start, 3) + 0.0,
+             "to": round(target, 3) + 0.0, "unit": unit, "t_s": round(t0, 3)}
+        r.update(measure_step(list(zip(tt.tolist(), y.tolist(), strict=True)), start, target))
+        r["curve"] = (tt * 1000.0, (y - start) / (target - start))
+        out.append(r)
     return out
+
+
+def axis_summary(steps):
+    """Per axis and mode: number of steps, mean rise, t90 and settle, largest overshoot."""
+    groups = {}
+    for s in steps:
+        groups.setdefault((s["axis"], s["mode"]), []).append(s)
+    out = []
+    for (axis, mode), ss in sorted(groups.items(), key=lambda kv: (AXES.index(kv[0][0]), kv[0][1])):
+        def mean(k, ss=ss):
+            v = [s[k] for s in ss if s[k] is not None]
+            return round(sum(v) / len(v), 1) if v else None
+
+        over = [s["overshoot_pct"] for s in ss if s["overshoot_pct"] is not None]
+        out.append({"axis": axis, "mode": mode, "steps": len(ss), "rise_ms": mean("rise_ms"),
+                    "t90_ms": mean("t90_ms"), "settle_ms": mean("settle_ms"),
+                    "overshoot_pct": max(over) if over else None})
+    return out
+
+
+def public(step):
+    """A log step without its plotting curve (for JSON)."""
+    return {k: v for k, v in step.items() if k != "curve"}
 
 
 def amplitude_spectrum(signal, rate_hz, segment=512):

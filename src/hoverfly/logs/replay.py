@@ -176,6 +176,18 @@ class ReplayResult:
         d = self.old if which == "old" else self.new
         return {k: float(np.sqrt(np.mean(np.square(v)))) if len(v) else 0.0 for k, v in d.items()}
 
+    def steps(self, log):
+        """The held steps measured as `hoverfly fly` and `log report` do (logs/steps.py), on the replayed rate
+        set point and filtered gyro. Open loop: the gyro is the logged motion through the replay's filters,
+        so these are the logged flight's figures, not what new gains would fly."""
+        from hoverfly.logs.analysis import log_steps, public
+
+        if "setpoint_roll" not in self.new or "gyro_roll" not in self.new:
+            return []
+        sp = np.stack([self.new["setpoint_" + a] for a in AXES], axis=1)
+        g = np.stack([self.new["gyro_" + a] for a in AXES], axis=1)
+        return [public(st) for st in log_steps(log, self.t_s, sp, g)]
+
     def to_dict(self):
         return {"passes": len(self.t_s), "overrides": [[n, v] for n, v in self.overrides],
                 "max_abs_diff": self.max_abs_diff(), "rms_old": self.rms("old"), "rms_new": self.rms("new"),
@@ -289,8 +301,29 @@ def replay(log, overrides=()):
     return ReplayResult(t_s, old, new, warnings, overrides)
 
 
+def _zoom_window(result, keys, width_s=0.6):
+    """(t0, t1): width_s around the pass where the replay differs most from the log on these keys."""
+    t = result.t_s
+    if not len(t):
+        return 0.0, width_s
+    best = np.zeros(len(t))
+    for k in keys:
+        if k in result.old:
+            best = np.maximum(best, np.abs(result.new[k] - result.old[k]))
+    i = int(np.argmax(best)) if best.any() else len(t) // 2
+    t0 = max(float(t[0]), float(t[i]) - width_s / 2)
+    return t0, t0 + width_s
+
+
+def _title(result, what):
+    changes = ", ".join("%s=%s" % (nm, v) for nm, v in result.overrides) or "the logged parameters (no change)"
+    return "Replay (open loop: the logged motion, so this is what the controller would command) - %s: %s" % (
+        what, changes)
+
+
 def plot_replay(result, out_dir, n_motors=4):
-    """replay_pid.png (P, D and sum per axis, old against new) and replay_motors.png; returns the paths."""
+    """replay_pid.png and replay_motors.png: on the left the difference (replayed - logged) over the whole
+    log, on the right logged against replayed over the 0.6 s where they differ most. Returns the paths."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -299,37 +332,57 @@ def plot_replay(result, out_dir, n_motors=4):
     os.makedirs(out_dir, exist_ok=True)
     t = result.t_s
     paths = []
-    fig, axs = plt.subplots(3, 1, figsize=(11, 8), sharex=True)
+    terms = (("p", "tab:blue"), ("i", "tab:green"), ("d", "tab:red"), ("f", "tab:purple"), ("sum", "k"))
+    keys = ["%s_%s" % (term, axis) for term, _ in terms for axis in AXES]
+    z0, z1 = _zoom_window(result, keys)
+    zoom = (t >= z0) & (t <= z1)
+    fig, axs = plt.subplots(3, 2, figsize=(14, 8.5), sharex="col", gridspec_kw={"width_ratios": (3, 2)})
     for a, axis in enumerate(AXES):
-        ax = axs[a]
-        for term, color in (("p", "tab:blue"), ("d", "tab:green"), ("sum", "k")):
+        axd, axz = axs[a, 0], axs[a, 1]
+        for term, color in terms:
             key = "%s_%s" % (term, axis)
-            if key in result.old:
-                ax.plot(t, result.old[key], color=color, lw=0.7, alpha=0.5, label="%s logged" % term.upper())
-                ax.plot(t, result.new[key], color=color, lw=0.8, ls="--", label="%s replayed" % term.upper())
-        ax.set_ylabel(axis + " (torque)")
-        ax.grid(alpha=0.3)
-    axs[0].legend(loc="upper right", ncol=3, fontsize=8)
-    changes = ", ".join("%s=%s" % (nm, v) for nm, v in result.overrides) or "no changes"
-    axs[0].set_title("Replay: logged against replayed PID terms (%s)" % changes)
-    axs[-1].set_xlabel("time (s)")
+            if key not in result.old:
+                continue
+            label = term.upper() if term != "sum" else "sum"
+            axd.plot(t, result.new[key] - result.old[key], color=color, lw=0.7, label=label)
+            if term in ("p", "d", "sum"):
+                axz.plot(t[zoom], result.old[key][zoom], color=color, lw=1.0, alpha=0.6, label=label + " logged")
+                axz.plot(t[zoom], result.new[key][zoom], color=color, lw=1.0, ls="--", label=label + " replayed")
+        axd.set_ylabel("%s: replayed - logged\n(torque, 1 = full)" % axis)
+        axz.set_ylabel("%s torque (1 = full)" % axis)
+        for ax in (axd, axz):
+            ax.grid(alpha=0.3)
+            ax.legend(loc="upper right", ncol=3, fontsize=7)
+    axs[0, 0].set_title("difference over the whole log", loc="left", fontsize=10)
+    axs[0, 1].set_title("logged (solid), replayed (dashed), %.2f-%.2f s" % (z0, z1),
+                        loc="left", fontsize=10)
+    axs[-1, 0].set_xlabel("time (s)")
+    axs[-1, 1].set_xlabel("time (s)")
+    fig.suptitle(_title(result, "PID terms"), fontsize=10)
     fig.tight_layout()
     p = os.path.join(out_dir, "replay_pid.png")
     fig.savefig(p, dpi=90)
     plt.close(fig)
     paths.append(p)
-    fig, ax = plt.subplots(figsize=(11, 4.5))
-    for m in range(n_motors):
-        key = "motor%d" % m
-        if key in result.old:
-            line = ax.plot(t, result.old[key], lw=0.7, alpha=0.5, label="motor %d logged" % (m + 1))
-            ax.plot(t, result.new[key], lw=0.8, ls="--", color=line[0].get_color(),
-                    label="motor %d replayed" % (m + 1))
-    ax.set_xlabel("time (s)")
-    ax.set_ylabel("output (0 = stop, idle..1)")
-    ax.set_title("Replay: motors, logged against replayed (%s)" % changes)
-    ax.legend(loc="upper right", ncol=2, fontsize=7)
-    ax.grid(alpha=0.3)
+    mkeys = ["motor%d" % m for m in range(n_motors) if "motor%d" % m in result.old]
+    z0, z1 = _zoom_window(result, mkeys)
+    zoom = (t >= z0) & (t <= z1)
+    fig, (axd, axz) = plt.subplots(1, 2, figsize=(14, 4.8), gridspec_kw={"width_ratios": (3, 2)})
+    for key in mkeys:
+        m = int(key[5:])
+        line = axd.plot(t, result.new[key] - result.old[key], lw=0.7, label="motor %d" % (m + 1))
+        c = line[0].get_color()
+        axz.plot(t[zoom], result.old[key][zoom], lw=1.0, alpha=0.6, color=c, label="motor %d logged" % (m + 1))
+        axz.plot(t[zoom], result.new[key][zoom], lw=1.0, ls="--", color=c, label="motor %d replayed" % (m + 1))
+    axd.set_ylabel("replayed - logged (output, 1 = full)")
+    axz.set_ylabel("output (0 = stop, idle..1)")
+    axd.set_title("difference over the whole log", loc="left", fontsize=10)
+    axz.set_title("logged (solid) against replayed (dashed), %.2f-%.2f s" % (z0, z1), loc="left", fontsize=10)
+    for ax in (axd, axz):
+        ax.set_xlabel("time (s)")
+        ax.grid(alpha=0.3)
+        ax.legend(loc="upper right", ncol=2, fontsize=7)
+    fig.suptitle(_title(result, "motors"), fontsize=10)
     fig.tight_layout()
     p = os.path.join(out_dir, "replay_motors.png")
     fig.savefig(p, dpi=90)

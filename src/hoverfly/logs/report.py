@@ -3,7 +3,7 @@
 The page holds the log's summary (system, duration, topics and their rates, dropouts,
 warnings of a partial read), the log messages (arming, failsafe, modes), the parameters
 that differ from hoverfly's defaults and their changes in flight, the step-response numbers
-per axis, and the PNGs of `hoverfly.logs.plot`.
+per step (logs/steps.py: the same measurement as `hoverfly fly`), and the PNGs of `hoverfly.logs.plot`.
 """
 
 import html
@@ -12,6 +12,7 @@ import os
 
 from hoverfly.logs import analysis, plot
 from hoverfly.logs.data import params_table
+from hoverfly.logs.steps import describe
 
 
 def _table(headers, rows):
@@ -24,19 +25,19 @@ def _table(headers, rows):
 
 
 def write_report(log, out_dir):
-    """Write plots and index.html into out_dir; returns {"index": path, "plots": [...], "steps": {...}}."""
+    """Write plots and index.html into out_dir; returns {"index": path, "plots": [...], "steps": [...],
+    "axes": [...]} (each step as `hoverfly fly --json` gives it, plus its time in the log)."""
     os.makedirs(out_dir, exist_ok=True)
-    responses = analysis.step_responses(log)
+    found = analysis.log_steps(log)
     written = []
     for name, fn, title in plot.PLOTS:
         path = os.path.join(out_dir, name + ".png")
-        p = fn(log, path, responses) if name == "step_response" else fn(log, path)
+        p = fn(log, path, found) if name == "step_response" else fn(log, path)
         if p is not None:
             written.append((name, title, p))
     s = log.summary
-    steps = {axis: None if r is None else {k: r[k] for k in ("rise_ms", "t90_ms", "delay_ms", "overshoot_pct",
-                                                             "settled", "windows")}
-             for axis, r in responses.items()}
+    steps = [analysis.public(st) for st in found]
+    axes = analysis.axis_summary(found)
     parts = [
         "<!doctype html><html><head><meta charset='utf-8'><title>hoverfly log report: %s</title>"
         % html.escape(os.path.basename(log.path)),
@@ -60,12 +61,21 @@ def write_report(log, out_dir):
     parts.append(_table(("time (s)", "level", "text"),
                         [("%.3f" % ((m["timestamp_us"] - log.start_us) * 1e-6), m["level"], m["text"])
                          for m in s["messages"]]))
-    parts.append("<h2>Step response (setpoint to gyro)</h2>")
-    parts.append(_table(("axis", "rise 10-90 % (ms)", "90 % at (ms)", "delay 50 % (ms)", "overshoot (%)",
-                         "settled", "windows"),
-                        [(a,) + ((r["rise_ms"], r["t90_ms"], r["delay_ms"], r["overshoot_pct"], r["settled"],
-                                  r["windows"]) if r else ("not enough stick activity",) + ("",) * 5)
-                         for a, r in steps.items()]))
+    parts.append("<h2>Step response</h2>")
+    parts.append("<p>%s</p>" % html.escape(describe()))
+    if steps:
+        parts.append(_table(("time (s)", "axis", "mode", "from", "to", "unit", "rise 10-90 % (ms)", "90 % at (ms)",
+                             "overshoot (%)", "settle ±5 % (ms)", "steady error"),
+                            [(st["t_s"], st["axis"], st["mode"], st["from"], st["to"], st["unit"], st["rise_ms"],
+                              st["t90_ms"], st["overshoot_pct"], st["settle_ms"], st["steady_error"])
+                             for st in steps]))
+        parts.append(_table(("axis", "mode", "steps", "mean rise (ms)", "mean 90 % at (ms)", "mean settle (ms)",
+                             "largest overshoot (%)"),
+                            [(a["axis"], a["mode"], a["steps"], a["rise_ms"], a["t90_ms"], a["settle_ms"],
+                              a["overshoot_pct"]) for a in axes]))
+    else:
+        parts.append("<p>No held stick step in this log (a stick moved at once by %d us or more and held for "
+                     "%.1f s): nothing to measure.</p>" % (analysis.MIN_STEP_US, analysis.MIN_HOLD_S))
     changed = [r for r in params_table(log) if r[4]]
     parts.append("<h2>Parameters that differ from the defaults</h2>")
     parts.append(_table(("name", "value", "default", "unit", ""), changed) if changed else "<p>none</p>")
@@ -82,5 +92,5 @@ def write_report(log, out_dir):
     with open(index, "w") as f:
         f.write("\n".join(parts))
     with open(os.path.join(out_dir, "steps.json"), "w") as f:
-        json.dump(steps, f, indent=1)
-    return {"index": index, "plots": [p for _, _, p in written], "steps": steps}
+        json.dump({"method": describe(), "steps": steps, "axes": axes}, f, indent=1)
+    return {"index": index, "plots": [p for _, _, p in written], "steps": steps, "axes": axes}

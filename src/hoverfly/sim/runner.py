@@ -34,6 +34,7 @@ from hoverfly.core.params import Params
 from hoverfly.core.rc import aux_channel, map_channels
 from hoverfly.core.scheduler import PS_JITTER_MAX
 from hoverfly.errors import UserError
+from hoverfly.logs.steps import measure_step
 from hoverfly.sim.airframes import load_airframe
 from hoverfly.sim.board import SimBoard
 from hoverfly.sim.companion import Companion
@@ -69,7 +70,7 @@ def build_params(airframe, scenario, overrides):
 
 
 class StepMeter:
-    """Measures one commanded step: 10-90 % rise, overshoot, settling (±5 %) and steady error."""
+    """Collects one commanded step's response; logs/steps.py measures it, as the log tools do."""
 
     def __init__(self, axis, mode, start, target, unit, t0_s):
         self.axis = axis
@@ -84,44 +85,9 @@ class StepMeter:
         self.samples.append((t_s - self.t0_s, value))
 
     def result(self):
-        a = self.target - self.start
-        span = abs(a) if a != 0 else 1.0
-        sign = 1.0 if a >= 0 else -1.0
-        t10 = t90 = None
-        peak = -1e9
-        for t, v in self.samples:
-            frac = (v - self.start) * sign / span
-            if t10 is None and frac >= 0.1:
-                t10 = t
-            if t90 is None and frac >= 0.9:
-                t90 = t
-            if frac > peak:
-                peak = frac
-        settle = None
-        band = 0.05 * span
-        for t, v in reversed(self.samples):
-            if abs(v - self.target) > band:
-                settle = t
-                break
-        if settle is None:
-            settle = 0.0
-        elif self.samples and settle >= self.samples[-1][0]:
-            settle = None  # never settled within the window
-        n_tail = max(1, len(self.samples) // 5)
-        tail = self.samples[-n_tail:]
-        steady = sum(self.target - v for _, v in tail) / len(tail) if tail else None
-        r = {
-            "axis": self.axis,
-            "mode": self.mode,
-            "from": round(self.start, 3),
-            "to": round(self.target, 3),
-            "unit": self.unit,
-            "rise_ms": None if (t10 is None or t90 is None) else round((t90 - t10) * 1000.0, 1),
-            "t90_ms": None if t90 is None else round(t90 * 1000.0, 1),
-            "overshoot_pct": round(max(0.0, (peak - 1.0) * 100.0), 2),
-            "settle_ms": None if settle is None else round(settle * 1000.0, 1),
-            "steady_error": None if steady is None else round(steady, 3),
-        }
+        r = {"axis": self.axis, "mode": self.mode, "from": round(self.start, 3), "to": round(self.target, 3),
+             "unit": self.unit, "t_s": round(self.t0_s, 3)}
+        r.update(measure_step(self.samples, self.start, self.target))
         return r
 
 
@@ -368,12 +334,17 @@ class SimRun:
             "loop": {
                 "mean_us": round(loop_sum / n_steps * 1e6, 2) if n_steps else 0.0,
                 "max_us": round(loop_max * 1e6, 1),
-                "overruns": overruns,
+                # Wall-clock passes longer than the loop period: a count that means something only when the
+                # flight is paced to the wall clock; a lockstep run's timing is the modelled one (the jitter).
+                "overruns": overruns if self.realtime else None,
+                "timing": "realtime" if self.realtime else "lockstep",
                 "cycle_jitter_max_us": sched.stats[PS_JITTER_MAX],
             },
             "battery": {"voltage_v": round(v.battery.voltage_v, 3), "mah_drawn": round(v.battery.mah_drawn, 1)},
             "outputs": self._outputs_report(),
             "autopilot": self.companion.report() if self.companion is not None else None,
+            "receiver": self.params.get("rx_provider"),
+            "firmware_runtime": self.firmware,
         }
 
     # ---------------------------------------------------------------- helpers
