@@ -100,6 +100,13 @@ def bundle_lib(bundle):
     return lib
 
 
+# Both Pythons put the current folder ('') first on the path, so a user who runs `hoverfly fly` from the
+# folder they cloned into (which holds a hoverfly/ folder) would start that copy, or a half-built one,
+# instead of the package on MICROPYPATH / PYTHONPATH. The child drops '' before its first import.
+_START = ("import sys\nif '' in sys.path: sys.path.remove('')\n"
+          "from hoverfly.boards.bridge_fw import main\nsys.exit(main())")
+
+
 def firmware_command(firmware, micropython=None, heap=DEFAULT_HEAP, bundle=None):
     """(argv, env) that start the bridged firmware on stdin/stdout; MicroPython runs it from the
     sources, or from a flash bundle's precompiled modules (`bundle`, built for unix-x64)."""
@@ -112,10 +119,10 @@ def firmware_command(firmware, micropython=None, heap=DEFAULT_HEAP, bundle=None)
             generate_all()
         # MICROPYPATH replaces the default path: keep .frozen (the VM's built-in modules).
         env["MICROPYPATH"] = "%s:.frozen" % (SRC_DIR if bundle is None else bundle_lib(bundle))
-        return [exe, "-X", "heapsize=" + heap, "-m", "hoverfly.boards.bridge_fw"], env
+        return [exe, "-X", "heapsize=" + heap, "-c", _START], env
     if firmware == "cpython-process":
         env["PYTHONPATH"] = str(SRC_DIR) + os.pathsep + env.get("PYTHONPATH", "")
-        return [sys.executable, "-m", "hoverfly.boards.bridge_fw"], env
+        return [sys.executable, "-c", _START], env
     raise UserError("--firmware must be one of %s" % ", ".join(FIRMWARES))
 
 
