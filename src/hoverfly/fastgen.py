@@ -25,6 +25,7 @@ PACKAGE = pathlib.Path(__file__).resolve().parent
 STAGES = {
     "imufilter": "hoverfly.core.fixedimu",
     "rate": "hoverfly.core.fixedrate",
+    "att": "hoverfly.core.fixedatt",
 }
 DIRECTIVE = "# fastpass:"
 HASH_LINE = "# fastgen source sha256: "
@@ -57,7 +58,8 @@ TAB_SIZE = {tab_size}
 
 
 # the names the written code uses itself (the decode's, the encode's, the table's)
-_RESERVED = {"_t", "_one", "_sx", "_lg", "_b", "_e", "_a", "_sg", "_pw", "_mm", "_sh", "_h", "_r", "_bits"}
+_RESERVED = {"_t", "_one", "_sx", "_lg", "_b", "_e", "_a", "_sg", "_pw", "_mm", "_sh", "_h", "_r", "_bits", "_ah",
+             "_al", "_bh", "_bl"}
 
 
 class FastGenError(Exception):
@@ -232,6 +234,14 @@ class Generator:
         if isinstance(node, ast.IfExp):
             return "(%s if %s else %s)" % (self.expr(node.body, scope), self.expr(node.test, scope),
                                            self.expr(node.orelse, scope))
+        if isinstance(node, ast.Subscript) and isinstance(node.value, ast.Call):
+            k = self.const_value(node.slice, scope)
+            names = self.call_tuple(node.value, scope)
+            if k is None or not 0 <= k < len(names):
+                _fail(node, "a helper's tuple is indexed by a constant")
+            return names[int(k)]
+        if isinstance(node, ast.Subscript) and self.is_list(node.value, scope):
+            return self.list_element(node, scope)
         if isinstance(node, ast.Subscript):
             name, code = self.array(node.value, scope)
             if code == "f":
@@ -243,8 +253,13 @@ class Generator:
                 return self.mul(node, scope)
             if fn == "_dec":
                 return self.dec(node, scope)
+            if fn == "_mulw":
+                return self.mulw(node, scope)
             if fn in self.functions:
-                return self.inline(self.functions[fn], node, scope)
+                result = self.inline(self.functions[fn], node, scope)
+                if isinstance(result, list):
+                    _fail(node, "%s returns a tuple: unpack it or index it" % fn)
+                return result
         _fail(node, "%s is not in the dialect (docs/fastpass.md)" % ast.unparse(node))
 
     def operand(self, node, scope):
@@ -303,6 +318,41 @@ class Generator:
         self.emit("    %s = (%s << (16 - %s)) + ((%s + ((_one << %s) >> 1)) >> %s)" % (r, hi, s, lo, s, s))
         self.emit("else:")
         self.emit("    %s = (%s + (%s >> 16) + (_one << (%s - 17))) >> (%s - 16)" % (r, hi, lo, s, s))
+        return r
+
+    def is_list(self, node, scope):
+        return isinstance(node, ast.Name) and scope.names.get(node.id, ("",))[0] == "list"
+
+    def list_element(self, node, scope):
+        """A local list's element (a local of its own): the index must be a constant, or an unrolled loop's."""
+        elems = scope.names[node.value.id][1]
+        k = self.const_value(node.slice, scope)
+        if k is None or not 0 <= k < len(elems):
+            _fail(node, "a local list is indexed by a constant (or the variable of a loop that is unrolled)")
+        return elems[int(k)]
+
+    def call_tuple(self, node, scope):
+        fn = self.resolve_function(node.func.id, scope) if isinstance(node.func, ast.Name) else None
+        if fn not in self.functions:
+            _fail(node, "only a module helper returns a tuple")
+        result = self.inline(self.functions[fn], node, scope)
+        if not isinstance(result, list):
+            _fail(node, "%s does not return a tuple" % fn)
+        return result
+
+    def mulw(self, node, scope):
+        """_mulw(a, b): a * b / 2**28 rounded half up, from 15-bit halves: with |a| < 2**30, |b| < 2**29 and a
+        result within 2**30, no partial product or sum passes 2**31."""
+        if len(node.args) != 2:
+            _fail(node, "_mulw takes (a, b)")
+        a = self.atom(self.expr(node.args[0], scope), "x")
+        b = self.atom(self.expr(node.args[1], scope), "x")
+        r = self.temp("w")
+        self.emit("_ah = %s >> 15" % a)
+        self.emit("_al = %s & 0x7FFF" % a)
+        self.emit("_bh = %s >> 15" % b)
+        self.emit("_bl = %s & 0x7FFF" % b)
+        self.emit("%s = ((_ah * _bh) << 2) + ((_ah * _bl + _al * _bh + ((_al * _bl + 0x8000000) >> 15)) >> 13)" % r)
         return r
 
     def dec(self, node, scope):
@@ -401,7 +451,11 @@ class Generator:
             name = self.fresh(fn.name + "_" + p.arg, inner)
             self.emit("%s = %s" % (name, self.expr(a, scope)))
             inner.names[p.arg] = ("local", name)
-        result = self.fresh(fn.name, inner)
+        width = _tuple_width(fn)
+        if width:
+            result = [self.fresh("%s_%d" % (fn.name, k), inner) for k in range(width)]
+        else:
+            result = self.fresh(fn.name, inner)
         body = [s for s in fn.body if not _is_docstring(s)]
         self.block(body, inner, result, rename=fn.name)
         return result
@@ -425,7 +479,14 @@ class Generator:
                 if s.value is not None:
                     if result is None:
                         _fail(s, "a return value here has nowhere to go")
-                    self.emit("%s = %s" % (result, self.expr(s.value, scope)))
+                    if isinstance(result, list):
+                        if not (isinstance(s.value, ast.Tuple) and len(s.value.elts) == len(result)):
+                            _fail(s, "every return of a helper that returns a tuple returns %d values" % len(result))
+                        texts = [self.expr(e, scope) for e in s.value.elts]
+                        for name, text in zip(result, texts, strict=True):
+                            self.emit("%s = %s" % (name, text))
+                    else:
+                        self.emit("%s = %s" % (result, self.expr(s.value, scope)))
                 return
             if isinstance(s, ast.If) and _has_return([s]):
                 rest = stmts[i + 1:]
@@ -495,14 +556,30 @@ class Generator:
         if _is_docstring(s) or isinstance(s, ast.Pass):
             return
         if isinstance(s, ast.Assign):
-            if len(s.targets) != 1:
-                _fail(s, "one target per assignment")
+            if len(s.targets) != 1:  # a = b = v: v once, then each
+                text = self.atom(self.expr(s.value, scope), "v")
+                for t in s.targets:
+                    self.store(t, text, scope, rename)
+                return
             t = s.targets[0]
             if isinstance(t, ast.Tuple):
-                # the kernel's arrays unpacked from a parameter: they come from the address table
-                if all(isinstance(e, ast.Name) and scope.names.get(e.id, ("",))[0] == "array" for e in t.elts):
-                    return
-                _fail(s, "tuple assignment (only the unpacking of the kernel's arrays)")
+                self.unpack(s, t, scope, rename)
+                return
+            if isinstance(t, ast.Name) and isinstance(s.value, ast.List):
+                texts = [self.expr(e, scope) for e in s.value.elts]
+                kind = scope.names.get(t.id)
+                if kind is not None and (kind[0] != "list" or len(kind[1]) != len(texts)):
+                    _fail(s, "%r is a list of one length, made once" % t.id)
+                elems = kind[1] if kind else [self.fresh((rename or "") + "_%s_%d" % (t.id, k), scope)
+                                              for k in range(len(texts))]
+                scope.names[t.id] = ("list", elems)
+                for name, text in zip(elems, texts, strict=True):
+                    self.emit("%s = %s" % (name, text))
+                return
+            if isinstance(t, ast.Subscript) and self.is_list(t.value, scope):
+                text = self.expr(s.value, scope)
+                self.emit("%s = %s" % (self.list_element(t, scope), text))
+                return
             if isinstance(t, ast.Name):
                 if isinstance(s.value, ast.Name) and s.value.id in self.functions and s.value.id not in scope.names:
                     scope.names[t.id] = ("alias", s.value.id)  # mul = _mul: the same product
@@ -526,6 +603,10 @@ class Generator:
             if isinstance(s.target, ast.Name):
                 text = self.expr(s.value, scope)
                 self.emit("%s %s= %s" % (self.target(s.target.id, scope, rename), op, text))
+                return
+            if isinstance(s.target, ast.Subscript) and self.is_list(s.target.value, scope):
+                text = self.expr(s.value, scope)
+                self.emit("%s %s= %s" % (self.list_element(s.target, scope), op, text))
                 return
             if isinstance(s.target, ast.Subscript):
                 name, code = self.array(s.target.value, scope)
@@ -556,14 +637,53 @@ class Generator:
             return
         _fail(s, "%s is not in the dialect (docs/fastpass.md)" % type(s).__name__)
 
+    def store(self, t, text, scope, rename):
+        """t = text, for a name, a local list's element or an 'i' array's."""
+        if isinstance(t, ast.Name):
+            self.emit("%s = %s" % (self.target(t.id, scope, rename), text))
+        elif isinstance(t, ast.Subscript) and self.is_list(t.value, scope):
+            self.emit("%s = %s" % (self.list_element(t, scope), text))
+        elif isinstance(t, ast.Subscript) and self.array(t.value, scope)[1] == "i":
+            name = self.array(t.value, scope)[0]
+            self.emit("%s[%s] = %s" % (name, self.expr(t.slice, scope), text))
+        else:
+            _fail(t, "a chained or tuple assignment to %s" % ast.unparse(t))
+
+    def unpack(self, s, t, scope, rename):
+        """a, b = ...: the kernel's arrays from a parameter (dropped: they come from the address table), a
+        tuple of values (all worked out before any is stored), a local list, or a helper's tuple."""
+        if all(isinstance(e, ast.Name) and scope.names.get(e.id, ("",))[0] == "array" for e in t.elts):
+            return
+        v = s.value
+        if isinstance(v, ast.Tuple) and len(v.elts) == len(t.elts):
+            texts = []
+            for e in v.elts:
+                tmp = self.temp("v")
+                self.emit("%s = %s" % (tmp, self.expr(e, scope)))
+                texts.append(tmp)
+        elif self.is_list(v, scope) and len(scope.names[v.id][1]) == len(t.elts):
+            texts = list(scope.names[v.id][1])
+        elif isinstance(v, ast.Call):
+            texts = self.call_tuple(v, scope)
+            if len(texts) != len(t.elts):
+                _fail(s, "the helper returns %d values" % len(texts))
+        else:
+            _fail(s, "a tuple assignment takes a tuple, a local list or a helper's tuple of the same length")
+        for e, text in zip(t.elts, texts, strict=True):
+            self.store(e, text, scope, rename)
+
     def for_(self, s, scope, result, rename):
         it = s.iter
-        if not (isinstance(s.target, ast.Name) and isinstance(it, ast.Call) and isinstance(it.func, ast.Name)
-                and it.func.id == "range" and 1 <= len(it.args) <= 2 and not s.orelse):
-            _fail(s, "a loop is `for name in range(stop)` or `range(start, stop)`")
         for n in ast.walk(s):
             if isinstance(n, ast.Continue):
                 _fail(n, "continue in a loop")
+        if s.orelse:
+            _fail(s, "a loop's else")
+        if self.unrolled(s, scope, result, rename):
+            return
+        if not (isinstance(s.target, ast.Name) and isinstance(it, ast.Call) and isinstance(it.func, ast.Name)
+                and it.func.id == "range" and 1 <= len(it.args) <= 2):
+            _fail(s, "a loop is `for name in range(stop)` or `range(start, stop)`, or over a local list")
         start = self.expr(it.args[0], scope) if len(it.args) == 2 else "0"
         stop = self.atom(self.expr(it.args[-1], scope), "n")
         var = self.target(s.target.id, scope, rename)
@@ -573,6 +693,54 @@ class Generator:
         self.block(s.body, scope, result, rename)
         self.emit("%s += 1" % var)
         self.depth -= 1
+
+    def unrolled(self, s, scope, result, rename):
+        """Write the loop once per element when it runs over a local list or a tuple (`for v in acc`,
+        `for i, v in enumerate((a, b))`), or over a constant range whose body indexes a local list: the index
+        is then a constant in each copy, and the list's elements are plain locals."""
+        it = s.iter
+        index = None
+        var = None
+        items = None
+        if isinstance(it, ast.Call) and isinstance(it.func, ast.Name) and it.func.id == "enumerate" \
+                and len(it.args) == 1 and isinstance(s.target, ast.Tuple) and len(s.target.elts) == 2:
+            index, var = s.target.elts[0].id, s.target.elts[1].id
+            it = it.args[0]
+        elif isinstance(s.target, ast.Name):
+            var = s.target.id
+        else:
+            return False
+        if isinstance(it, ast.Tuple):
+            items = [self.atom(self.expr(e, scope), "v") for e in it.elts]
+        elif self.is_list(it, scope):
+            items = list(scope.names[it.id][1])
+        elif (index is None and isinstance(it, ast.Call) and isinstance(it.func, ast.Name) and it.func.id == "range"
+              and 1 <= len(it.args) <= 2):
+            bounds = [self.const_value(a, scope) for a in it.args]
+            uses_list = any(isinstance(n, ast.Subscript) and self.is_list(n.value, scope) for b in s.body
+                            for n in ast.walk(b))
+            if None in bounds or not uses_list:
+                return False
+            start, stop = (0, bounds[0]) if len(bounds) == 1 else bounds
+            index, var, items = var, None, [None] * (int(stop) - int(start))
+            first = int(start)
+        else:
+            return False
+        if var is not None:
+            first = 0
+        saved = {n: scope.names.get(n) for n in (index, var) if n is not None}
+        for k, item in enumerate(items):
+            if index is not None:
+                scope.names[index] = ("const", first + k)
+            if var is not None:
+                self.emit("%s = %s" % (self.target(var, scope, rename), item))
+            self.block(s.body, scope, result, rename)
+        if index is not None:
+            if saved[index] is None:
+                del scope.names[index]
+            else:
+                scope.names[index] = saved[index]
+        return True
 
     # ---- the whole function
     def method_node(self):
@@ -588,9 +756,10 @@ class Generator:
         kernel = self.functions[self.kernel]
         outer = _assigned_names(method)
         args = [a.arg for a in method.args.args]
+        returns_int = any(isinstance(n, ast.Return) and n.value is not None for n in ast.walk(method))
         self.emit("_t = ptr32(self._tab)")
         self.emit("if _t[0] == 0 and _t[1] == 0:  # not configured: no addresses to write through")
-        self.emit("    return")
+        self.emit("    return 0" if returns_int else "    return")
         self.emit("_one = 1")
         self.emit("_sx = 0  # a ptr32 load is zero-extended on a 64-bit port: shifted up and back to sign-extend")
         self.emit("if (_one << 31) > 0:")
@@ -643,7 +812,7 @@ class Generator:
         if not called:
             raise FastGenError("%s.%s does not call %s" % (self.cls, self.method, self.kernel))
         sig = ", ".join(args)
-        head = "def %s(%s):" % (self.method, sig)
+        head = "def %s(%s)%s:" % (self.method, sig, " -> int" if returns_int else "")
         return head + "\n" + "\n".join(self.lines) + "\n"
 
 
@@ -681,6 +850,14 @@ def _only_arrays(kernel, param, array_names):
             t = n.targets[0]
             return isinstance(t, ast.Tuple) and all(isinstance(e, ast.Name) and e.id in array_names for e in t.elts)
     return False
+
+
+def _tuple_width(fn):
+    """How many values a helper returns (0: one value, not a tuple)."""
+    for n in ast.walk(fn):
+        if isinstance(n, ast.Return) and isinstance(n.value, ast.Tuple):
+            return len(n.value.elts)
+    return 0
 
 
 def _is_docstring(s):

@@ -7,9 +7,9 @@ update and nothing needs handing over); gives the quaternion, the bias and `Atti
 pitch, yaw in radians and the tilt cosine) with no float object made on MicroPython, where the float
 update made about 123 of them a call (3.9 kB on the 64-bit VM). `FixedAttitude.step` runs every pass:
 it sums the gyro and, every `every` passes (att_rate_hz), updates on the average, as Flight.step does
-for the float stage. On MicroPython the viper twin (accel/att.py) is that method itself; `att_pass`
-below runs everywhere else (the reference, and what tests/portable/test_fixedatt.py holds the viper
-twin to, bit for bit).
+for the float stage. `att_pass` below is the one source of that arithmetic; on MicroPython its viper
+twin (accel/att.py, generated from it by hoverfly.fastgen, docs/fastpass.md) is that method itself,
+and tests/portable/test_fixedatt.py holds the two equal bit for bit.
 
 Formats (value = integer / 2**q):
 - gyro samples and their sum Q16, clamped to +-64 rad/s (2**22; gyros saturate near 35 rad/s), the
@@ -20,8 +20,8 @@ Formats (value = integer / 2**q):
   att_rate_hz, 50 Hz, with room for jitter: a longer gap is a stall, not a step).
 - Products of two wide words (the quaternion's) are `(a * b + 2**27) >> 28` with |a| < 2**30,
   |b| < 2**29 - 2**15 and a result within 2**30 (here at most |n|^2 < 3.7 times 1/|n| < 1.16, the
-  other words within 1.91), which the viper twin builds from 15-bit halves; a gain or a dt times a word is
-  `(c * x + 2**(s-1)) >> s` with |c| < 2**15, built from x's 16-bit halves as accel/rate.py does.
+  other words within 1.91): `_mulw`, which the generated code builds from 15-bit halves; a gain or a dt
+  times a word is `_mul`, `(c * x + 2**(s-1)) >> s` with |c| < 2**15, built from x's 16-bit halves.
   tests/test_fixedatt_bounds.py runs this twin with every intermediate checked against 2**31.
 - The accelerometer is scaled by a power of two to 13-14 bits, its norm is an integer square root,
   and the measured down is its components over the norm (Q15); 1/|q| is an integer square root's
@@ -36,7 +36,7 @@ or NaN) restarts at level.
 import math
 from array import array
 
-from hoverfly.compat import accel_module, const
+from hoverfly.compat import IS_MICROPYTHON, const
 
 # co: the gains (a 15-bit mantissa m and a shift s, value = m / 2**s), the averaging, then tables
 CO_KP_M = const(0)
@@ -51,14 +51,13 @@ CO_DT_NOM = const(8)  # one pass's µs at loop_hz, for a pass whose ticks did no
 CO_K = const(9)  # the CORDIC gain, Q28
 CO_ATAN = const(10)  # atan(2**-i) in Q28, i < N_CORDIC
 N_CORDIC = const(26)
-CO_PAIRS = const(36)  # the viper twin's products: st indices a * 64 + b (see _PAIRS)
-CO_SIZE = const(80)
+CO_SIZE = const(36)
 
-# st: the gyro sum (Q16), the passes summed, their µs; st[8..] the viper twin's working words
+# st: the gyro sum (Q16), the passes summed, their µs
 S_GSUM = const(0)
 S_N = const(3)
 S_US = const(4)
-ST_SIZE = const(48)
+ST_SIZE = const(8)
 
 F_ARMED = const(1)
 # att_pass's result: the update ran, and it wrote the bias
@@ -90,28 +89,12 @@ for _i in range(N_CORDIC):
     _k *= math.sqrt(1.0 + 2.0 ** (-2 * _i))
 _CORDIC_K = int(_k * 268435456.0 + 0.5)
 
-# st indices of the viper twin's working words (accel/att.py repeats them as literals)
-_W = const(8)
-_X = const(9)
-_Y = const(10)
-_Z = const(11)
-_TX = const(12)
-_TY = const(13)
-_TZ = const(14)
-_INV = const(15)
-# The products the viper twin takes from st pairs (a * 64 + b), in this order:
-# the estimated down from the old quaternion (8), the rotation step (12), |n|^2 (4), the normalisation (4),
-# the angles from the new quaternion (9)
-_PAIRS = (
-    (_X, _Z), (_W, _Y), (_W, _X), (_Y, _Z), (_W, _W), (_X, _X), (_Y, _Y), (_Z, _Z),
-    (_X, _TX), (_Y, _TY), (_Z, _TZ), (_W, _TX), (_Y, _TZ), (_Z, _TY), (_W, _TY), (_X, _TZ), (_Z, _TX),
-    (_W, _TZ), (_X, _TY), (_Y, _TX),
-    (_W, _W), (_X, _X), (_Y, _Y), (_Z, _Z),
-    (_W, _INV), (_X, _INV), (_Y, _INV), (_Z, _INV),
-    (_X, _X), (_Y, _Y), (_Z, _Z), (_W, _X), (_Y, _Z), (_W, _Y), (_Z, _X), (_W, _Z), (_X, _Y),
-)
-
-_viper = accel_module("att")
+_viper = None
+if IS_MICROPYTHON:
+    try:  # generated from att_pass below by hoverfly.fastgen; absent, or a port without viper: the Python runs
+        from hoverfly.accel import att as _viper
+    except (ImportError, SyntaxError, NameError, ValueError, TypeError):  # TypeError: ViperTypeError
+        pass
 HAS_ACCEL = _viper is not None
 
 
@@ -132,7 +115,7 @@ def coef(value, cap=40):
 
 
 def _dec(x, scale, lim):
-    """A float in fixed point: truncated toward 0, clamped to +-lim, NaN as 0 (accel/att.py's decode)."""
+    """A float in fixed point: truncated toward 0, clamped to +-lim, NaN as 0 (Q28: 2**28, ...)."""
     if x != x:
         return 0
     v = x * scale
@@ -191,6 +174,7 @@ def _atan2(co, y, x):
     return z, x
 
 
+# fastpass: FixedAttitude.step co:i st:i gyro:f accel:f qa:f ang:f bias:f
 def att_pass(co, st, io, flags, dt_us):
     """One pass (the Python twin): io = (gyro rad/s[3], accel m/s^2[3], quaternion[4], angles[4], bias
     rad/s[3]), float arrays. Sums the gyro; every co[CO_EVERY] passes updates the quaternion, the
@@ -358,9 +342,6 @@ def _fill_tables(co):
     co[CO_K] = _CORDIC_K
     for i in range(N_CORDIC):
         co[CO_ATAN + i] = int(math.atan(2.0 ** -i) * 268435456.0 + 0.5)
-    for k in range(len(_PAIRS)):
-        a, b = _PAIRS[k]
-        co[CO_PAIRS + k] = a * 64 + b
 
 
 class FixedAttitude:
