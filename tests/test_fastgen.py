@@ -48,6 +48,16 @@ def _dec(x, scale, lim):
     return int(v)
 
 
+def _mulw(a, b):
+    return (a * b + 0x8000000) >> 28
+
+
+def _turn(a, b):
+    if a < 0:
+        return -b, a
+    return b, a >> 1
+
+
 def _clamp(v, lim):
     if v > lim:
         return lim
@@ -79,6 +89,21 @@ def demo_pass(co, st, io, n):
         st[48 + k] += 1
         fout[k] = st[16 + k] * _INV16  # past 2**24: the encode rounds
         fout[8 + k] = st[32 + k] * _INV16
+    g = [0, 0, 0]
+    for i, v in enumerate((st[0], st[1], st[2])):
+        g[i] = v * 2
+    for i in range(3):
+        g[i] += st[8 + i]
+    p, q = _turn(g[0], g[1])
+    g[2] += p - q
+    a = b = 0
+    for v in g:
+        if v > a:
+            a, b = v, a
+    st[56] = _mulw(st[0] << 6, st[1] << 6)
+    st[57] = _turn(g[2], a)[0] + b
+    x, y, z = g
+    st[58] = x - y + z
     return lo
 
 
