@@ -6,6 +6,7 @@ import sys
 from hoverfly.core.output import PROTOCOLS
 from hoverfly.core.params import check
 from hoverfly.errors import UserError
+from hoverfly.logs.steps import step_line
 
 
 def _parse_set(items):
@@ -41,39 +42,100 @@ def run_fly(args):
     return 0
 
 
+def _m(x):
+    """Metres for a person: no '-0.00 m' for a value that rounds to nothing."""
+    x = round(x, 2)
+    return "%.2f m" % (x + 0.0 if x != 0 else 0.0)
+
+
+def _event_text(e):
+    """`2.00 s armed (switch)`: the event in words, its detail only where it says something."""
+    name = e["event"].replace("_", " ")
+    detail = str(e["detail"])
+    if e["event"] == "mode":
+        return "%.2f s %s mode" % (e["t_s"], detail)
+    if e["event"] == "airmode":
+        return "%.2f s air mode %s" % (e["t_s"], "on" if detail not in ("0", "off") else "off")
+    if detail in ("", "0"):
+        return "%.2f s %s" % (e["t_s"], name)
+    return "%.2f s %s (%s)" % (e["t_s"], name, detail.replace("_", " "))
+
+
 def summary(r):
     alt = r["altitude_m"]
+    o = r.get("outputs") or {}
+    fw = r.get("firmware_runtime") or "cpython"
     lines = [
-        "%s on %s (seed %d): %.1f s flown in %.2f s wall (%.0fx real time), loop %d Hz"
-        % (r["scenario"], r["airframe"], r["seed"], r["sim_time_s"], r["wall_time_s"],
-           r["realtime_factor"] or 0, r["loop_hz"]),
-        "  %s, ended %s; tilt RMS %.2f deg (max %.1f); altitude %.2f..%.2f m, final %.2f m; drift %.2f m"
+        "%s on %s (seed %d), receiver %s, ESCs %s, firmware on %s" % (
+            r["scenario"], r["airframe"], r["seed"], r.get("receiver", "?"), o.get("esc", "?"),
+            {"cpython": "this Python", "micropython": "MicroPython (bridge)", "hil": "the device (HIL)"}.get(fw, fw)),
+        "  %.1f s flown in %.2f s wall (%.0fx real time, %s), loop %d Hz"
+        % (r["sim_time_s"], r["wall_time_s"], r["realtime_factor"] or 0, r["loop"].get("timing", "lockstep"),
+           r["loop_hz"]),
+        "  %s, ended %s; tilt RMS %.2f deg (max %.1f deg); altitude %s..%s, final %s; drift %s"
         % ("CRASHED" if r["crashed"] else "no crash", "armed" if r["armed"] else "disarmed", r["tilt_rms_deg"],
-           r["max_tilt_deg"], alt["min"], alt["max"], alt["final"], r["horizontal_drift_m"]),
+           r["max_tilt_deg"], _m(alt["min"]), _m(alt["max"]), _m(alt["final"]), _m(r["horizontal_drift_m"])),
     ]
-    for s in r["steps"]:
-        lines.append("  step %s %s %g->%g %s: rise %s ms, 90%% at %s ms, overshoot %.1f %%, settle %s ms, error %s"
-                     % (s["axis"], s["mode"], s["from"], s["to"], s["unit"], s["rise_ms"], s["t90_ms"],
-                        s["overshoot_pct"], s["settle_ms"], s["steady_error"]))
+    b = r.get("battery")
+    if b:
+        lines.append("  battery %.2f V at the end, %.0f mAh drawn" % (b["voltage_v"], b["mah_drawn"]))
+    for st in r["steps"]:
+        lines.append("  " + step_line(st))
     for f in r.get("flips", []):
-        lines.append("  flip %s: %d ms, lost %.2f m, ended %.1f deg from level"
-                     % (f["axis"], f["duration_ms"], f["alt_loss_m"], f["end_tilt_deg"]))
-    ev = ", ".join("%s %s@%.2fs" % (e["event"], e["detail"], e["t_s"]) for e in r["events"]
-                   if e["event"] not in ("mode", "airmode"))
-    lines.append("  events: " + ev)
-    o = r.get("outputs")
+        lines.append("  flip %s: %d ms, lost %s of height, ended %.1f deg from level"
+                     % (f["axis"], f["duration_ms"], _m(f["alt_loss_m"]), f["end_tilt_deg"]))
+    lines.append("  events: " + ("; ".join(_event_text(e) for e in r["events"]) or "none"))
     if o:
         lines.append("  outputs: %s ESCs, %d frames read, %d rejected, output failsafe tripped %d time(s)%s"
                      % (o["esc"], o["frames"], o["errors"], o["failsafe_trips"],
                         ", RPM " + "/".join(str(x) for x in o["rpm"]) if o.get("rpm") else ""))
     lp = r["loop"]
-    lines.append("  flight loop: %.1f us mean, %.0f us max, %d overruns" % (lp["mean_us"], lp["max_us"],
-                                                                            lp["overruns"]))
+    if lp.get("overruns") is None:
+        # Lockstep: the simulated clock steps exactly one period a pass; the wall time a pass takes is this
+        # computer's speed, not the flight's, so no "overrun" count here.
+        lines.append("  flight loop: lockstep at %d Hz on the simulated clock, scheduler jitter max %s us; "
+                     "%.1f us of this computer per pass (mean)" % (r["loop_hz"], lp.get("cycle_jitter_max_us", 0),
+                                                                 lp["mean_us"]))
+    else:
+        lines.append("  flight loop: %.1f us mean, %.0f us max, %d overruns of the %d us period (wall clock)"
+                     % (lp["mean_us"], lp["max_us"], lp["overruns"], round(1e6 / r["loop_hz"])))
+    log = r.get("log")
+    if log:
+        lines.append("  log written to %s (%d bytes, %d dropped; `hoverfly log report %s`)"
+                     % (log["path"], log["bytes"], log["dropped"], log["path"]))
     return "\n".join(lines)
 
 
+def _builtins_text():
+    """The --help epilog: every built-in scenario and airframe with its one-line description."""
+    import textwrap
+    import tomllib
+
+    from hoverfly.sim import airframes, scenario
+
+    def rows(folder, names):
+        out = []
+        for name in names:
+            try:
+                desc = tomllib.loads((folder / (name + ".toml")).read_text()).get("description", "")
+            except (OSError, ValueError):
+                desc = ""
+            out.append(textwrap.fill(desc, 100, initial_indent="  %-16s " % name, subsequent_indent=" " * 19))
+        return out
+
+    return "\n".join(["built-in scenarios (--scenario NAME, or a .toml file; its keys: hoverfly/sim/scenario.py):"]
+                     + rows(scenario.HERE, scenario.builtin_names())
+                     + ["", "built-in airframes (--airframe NAME, or a .toml file):"]
+                     + rows(airframes.HERE, airframes.builtin_names()))
+
+
 def register(sub):
-    p = sub.add_parser("fly", help="fly a scenario on the simulator (default: the demo on the 5inch)")
+    import argparse
+
+    p = sub.add_parser("fly", help="fly a scenario on the simulator (default: the demo on the 5inch)",
+                       description="Fly a scenario on the simulator in lockstep (or --realtime) and judge the "
+                                   "flight: tilt, altitude, drift, each commanded step's response, events.",
+                       epilog=_builtins_text(), formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--airframe", default="5inch", help="built-in airframe name or a .toml file")
     p.add_argument("--scenario", default="demo", help="built-in scenario name or a .toml file")
     p.add_argument("--duration", type=float, default=None, help="seconds to fly (default: the scenario's)")
