@@ -29,7 +29,10 @@ def register(subparsers):
     p = subparsers.add_parser("esc", help="encode ESC commands, decode bidirectional DShot replies")
     sub = p.add_subparsers(dest="esc_command")
     e = sub.add_parser("encode", help="one ESC command -> DShot frame or pulse width, with timings")
-    e.add_argument("--protocol", required=True, choices=tuple(DSHOT_PROTOCOLS) + ANALOG_PROTOCOLS)
+    e.add_argument("--protocol", required=True, choices=tuple(DSHOT_PROTOCOLS) + ANALOG_PROTOCOLS,
+                   help="the ESC protocol: dshot150/300/600/1200 (digital frames, the number is kbit/s), pwm "
+                        "(1000-2000 us), oneshot125 (125-250 us), oneshot42 (42-84 us), multishot (5-25 us) or "
+                        "servo (1000-2000 us at 50 Hz)")
     e.add_argument("--value", required=True, help="dshot 0..2047; analog throttle 0..1000; servo -1000..1000")
     e.add_argument("--telemetry", action="store_true", help="dshot: set the telemetry request bit")
     e.add_argument("--bidir", action="store_true", help="dshot: bidirectional (inverted CRC)")

@@ -187,15 +187,35 @@ def run_motors(args):
     finally:
         port.close()
     last = readings[-1]
+    notes = motor_notes(values, [last["motor%d_signal" % (k + 1)] for k in range(4)])
     if args.json:
         print(json.dumps({"commanded_us": values, "seconds": args.seconds, "last": last,
-                          "readings": len(readings)}))
+                          "readings": len(readings), "notes": notes}))
     else:
         print("motor test (props off): commanded %s us for %g s"
               % (", ".join(str(v) for v in values), args.seconds))
         print("last reading: %s us; motors stopped, control released"
               % ", ".join(str(last["motor%d_signal" % (k + 1)]) for k in range(4)))
+        for n in notes:
+            print("  " + n)
     return 0
+
+
+def motor_notes(commanded_us, read_us):
+    """Why a motor ran at another pulse than asked: the controller carries the command out at its limit
+    (core/maintserver.py) and the seed's reply has no room for the reason, so it is named here."""
+    notes = []
+    for k, (want, got) in enumerate(zip(commanded_us, read_us, strict=True)):
+        if not isinstance(got, int) or got == want or want <= 1000:
+            continue
+        if got < want:
+            notes.append("motor %d ran at %d us, not %d: capped by the props-off test limit motor_test_pct "
+                         "(%d us = %g %%; hoverfly params set motor_test_pct=N raises it) or by motor%d_max_us"
+                         % (k + 1, got, want, got, (got - 1000) / 10.0, k + 1))
+        else:
+            notes.append("motor %d ran at %d us, not %d: raised to the motor's floor (motor_idle_pct, motor%d_min_us)"
+                         % (k + 1, got, want, k + 1))
+    return notes
 
 
 def run_set(args):
@@ -203,8 +223,11 @@ def run_set(args):
 
     name = args.name.strip().lower()
     if name not in settable():
-        raise UserError("'%s' cannot be set over the maintenance protocol; it carries: %s"
-                        % (name, ", ".join(settable())))
+        from hoverfly.core.params import nearest
+
+        guess = nearest(name, settable())
+        raise UserError("'%s' cannot be set over the maintenance protocol%s; it carries: %s"
+                        % (name, " (did you mean %s?)" % guess if guess else "", ", ".join(settable())))
     value, err = check_value(name, args.value)
     if err is not None:
         raise UserError(err)
@@ -237,7 +260,10 @@ def run_save(args):
         try:
             client.command(mp.CMD_FLASH_WRITE)
         except Refused as exc:
-            raise UserError(str(exc)) from None
+            from hoverfly.cli_params import NO_STORAGE_HINT
+
+            # The seed's reply carries no reason; a flash write is refused when armed or with no storage.
+            raise UserError("%s: not saved; it is refused while armed, or %s" % (exc, NO_STORAGE_HINT)) from None
     finally:
         port.close()
     print("saved (flash write)")
@@ -310,7 +336,7 @@ def register(sub):
     s = ps.add_parser("set", parents=[common], help="a parameter through the seed command that carries it",
                       epilog="NAME is one of: " + ", ".join(settable()))
     s.add_argument("name", metavar="NAME", help="a hoverfly parameter the seed's commands carry (listed below)")
-    s.add_argument("value", metavar="VALUE")
+    s.add_argument("value", metavar="VALUE", help="the new value, in the parameter's unit (hoverfly params list)")
     s.set_defaults(func=run_set)
     sv = ps.add_parser("save", parents=[common], help="flash write (command 7)")
     sv.set_defaults(func=run_save)
@@ -319,7 +345,7 @@ def register(sub):
                       epilog="commands (id name arguments):\n" + "\n".join(
                           ("  %2d %-20s %s" % (k, mp.COMMANDS[k][0], " ".join(mp.COMMANDS[k][2]))).rstrip()
                           for k in range(mp.MAX_CMD_ID + 1)))
-    c.add_argument("name", metavar="NAME|ID")
-    c.add_argument("args", nargs="*", metavar="ARG")
+    c.add_argument("name", metavar="NAME|ID", help="a command's name or id (listed below)")
+    c.add_argument("args", nargs="*", metavar="ARG", help="its arguments, in the order listed below")
     c.add_argument("--read", nargs="+", metavar="FIELD", default=None, help="header fields to read with it")
     c.set_defaults(func=run_command)

@@ -59,8 +59,19 @@ def _session(args):
     return port, CliSession(port, args.timeout)
 
 
-def _refused(what, exc):
-    return UserError("the controller refused '%s': %s" % (what, exc))
+# What a refused save means when the controller has nowhere to write: the simulator keeps its parameters
+# only in the file given with --storage, a board in its flash.
+NO_STORAGE_HINT = ("the controller has no parameter storage it can write: a `hoverfly sim` keeps parameters only "
+                   "when started with --storage PATH (e.g. hoverfly sim --storage params.bin)")
+
+
+def _refused(what, exc, applied=()):
+    text = "the controller refused '%s': %s" % (what, exc)
+    if what == "save" and "storage" in str(exc):
+        text += "; " + NO_STORAGE_HINT
+    if applied:
+        text += " (applied for this session, not saved: %s)" % ", ".join(applied)
+    return UserError(text)
 
 
 def _run_lines(args, line):
@@ -143,7 +154,7 @@ def run_set(args):
                 try:
                     cli.save()
                 except Refused as exc:
-                    raise _refused("save", exc) from None
+                    raise _refused("save", exc, ["%s = %s" % (n, format_value(v)) for n, v, _ in checked]) from None
                 done.append("saved")
     finally:
         port.close()

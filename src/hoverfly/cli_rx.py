@@ -18,6 +18,8 @@ from hoverfly.protocols import crsf, ibus, sbus
 from hoverfly.protocols.rxcodec import MAX_PULSE_US, MIN_PULSE_US
 
 SERIAL_PROTOCOLS = ("crsf", "sbus", "ibus")
+_PROTOCOL_HELP = ("the receiver's serial protocol: crsf (TBS Crossfire / ExpressLRS, 416 666 or 420 000 baud), "
+                  "sbus (FrSky/Futaba, 100 kbaud inverted 8E2) or ibus (FlySky, 115200 baud)")
 
 
 def register(subparsers):
@@ -26,13 +28,13 @@ def register(subparsers):
     sub = p.add_subparsers(dest="rx_command")
 
     d = sub.add_parser("decode", help="decode a captured receiver byte stream, one line per frame")
-    d.add_argument("--protocol", required=True, choices=SERIAL_PROTOCOLS)
+    d.add_argument("--protocol", required=True, choices=SERIAL_PROTOCOLS, help=_PROTOCOL_HELP)
     d.add_argument("file", help="capture file, or - for stdin")
     d.add_argument("--json", action="store_true", help="one JSON object per line")
     d.set_defaults(func=run_decode)
 
     e = sub.add_parser("encode", help="encode one RC frame")
-    e.add_argument("--protocol", required=True, choices=SERIAL_PROTOCOLS)
+    e.add_argument("--protocol", required=True, choices=SERIAL_PROTOCOLS, help=_PROTOCOL_HELP)
     e.add_argument("--channels", default="", help="comma-separated µs values, missing ones are 1500")
     e.add_argument("--out", help="write the frame to this file instead of stdout")
     e.add_argument("--hex", action="store_true", help="hex text instead of binary")

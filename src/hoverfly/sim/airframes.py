@@ -137,11 +137,18 @@ def check_airframe(data, where):
 
 def load_airframe(name_or_path):
     path = pathlib.Path(name_or_path)
-    if not (path.suffix == ".toml" and path.exists()):
+    if path.suffix == ".toml" or "/" in str(name_or_path):
+        if not path.exists():
+            raise UserError("airframe file %s does not exist" % path)
+    else:
         path = HERE / (str(name_or_path) + ".toml")
         if not path.exists():
-            raise UserError("unknown airframe '%s' (built in: %s, or a .toml file)"
-                            % (name_or_path, ", ".join(builtin_names())))
+            from hoverfly.core.params import nearest
+
+            guess = nearest(str(name_or_path), builtin_names())
+            raise UserError("unknown airframe '%s'%s (built in: %s, or a .toml file)"
+                            % (name_or_path, " (did you mean %s?)" % guess if guess else "",
+                               ", ".join(builtin_names())))
     try:
         data = tomllib.loads(path.read_text())
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:

@@ -226,8 +226,10 @@ def load_scenario(name_or_path):
     else:
         path = HERE / (str(name_or_path) + ".toml")
         if not path.exists():
-            raise UserError("unknown scenario '%s' (built in: %s, or a .toml file)"
-                            % (name_or_path, ", ".join(builtin_names())))
+            guess = nearest(str(name_or_path), builtin_names())
+            raise UserError("unknown scenario '%s'%s (built in: %s, or a .toml file)"
+                            % (name_or_path, " (did you mean %s?)" % guess if guess else "",
+                               ", ".join(builtin_names())))
     try:
         text = path.read_text()
     except (OSError, UnicodeDecodeError) as exc:
