@@ -22,6 +22,8 @@ COMMAND_MODULES = (
     "hoverfly.cli_maint",
     "hoverfly.cli_log",
     "hoverfly.cli_flash",
+    "hoverfly.cli_sweep",
+    "hoverfly.cli_tune",
 )
 
 
