@@ -24,6 +24,7 @@ COMMAND_MODULES = (
     "hoverfly.cli_flash",
     "hoverfly.cli_sweep",
     "hoverfly.cli_tune",
+    "hoverfly.cli_gcs",
 )
 
 

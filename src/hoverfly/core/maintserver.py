@@ -14,13 +14,19 @@ to its wire type is sent as 0 (counted in `field_errors`).
 What each command does in hoverfly, the parameters it writes and the capping rules are in
 docs/maintenance-protocol.md ("Commands in hoverfly").
 
-REMOTE_CONTROL_TAG with override = 1 becomes an RC frame for flight.on_msp_rc (the seed's
-"fly from maintenance"). Command 6 (control motors) = 1 is the props-off acknowledgement: motor
-commands 1-5 then drive flight.motor_test, and flight.config_session bit 4 blocks arming until
-6 = 0 or the client goes away.
+REMOTE_CONTROL_TAG with override = 1 is the seed's "fly from maintenance". With `maint_override` = 1
+(on in `hoverfly sim`, off by default on a board) it replaces the radio: `RadioOverride` stands in for
+flight.receiver and its frames are the pilot's, so arming, modes and the failsafe treat it as a
+receiver, and when the frames stop the flight's own link watch (rx_timeout_ms) starts the failsafe.
+With 0 the frame goes to flight.on_msp_rc (seed 004's autopilot rules).
+Command 6 (control motors) = 1 is the props-off acknowledgement: motor commands 1-5 then drive
+flight.motor_test, and flight.config_session bit 4 blocks arming until 6 = 0 or the client goes away.
 """
 
+from array import array
+
 from hoverfly import VERSION
+from hoverfly.compat import ticks_diff
 from hoverfly.core.mspserver import CONFIG_MAINT, ParsedRequests
 from hoverfly.core.rc import aux_channel
 from hoverfly.protocols import maintenance as mp
@@ -233,6 +239,8 @@ class MaintServer(ParsedRequests):
 
     def _override(self, p):
         f = self.flight
+        if f.params.get("maint_override"):
+            return self._radio_override(p)
         fn = getattr(f, "on_msp_rc", None)
         if fn is None:
             return "this firmware takes no remote-control override"
@@ -247,6 +255,32 @@ class MaintServer(ParsedRequests):
         self.overrides += 1
         reason = fn(f.board.now_us(), ch, 8)
         return None if not reason else str(reason)
+
+    def _radio_override(self, p):
+        """The request's sticks and arm switch as a receiver frame (maint_override = 1)."""
+        f = self.flight
+        ovr = f.receiver
+        if not isinstance(ovr, RadioOverride):
+            ovr = RadioOverride(f, f.receiver)
+            f.receiver = ovr
+        rc = f.rc
+        ch = ovr.frame_us
+        for k in range(len(ch)):
+            ch[k] = 1500
+        ch[rc.roll_ch] = p.rc_roll_us
+        ch[rc.pitch_ch] = p.rc_pitch_us
+        ch[rc.throttle_ch] = p.rc_throttle_us
+        params = f.params
+        arm = aux_channel(rc.map_ch, params.get("arm_ch"))  # AUX1..4 where rc_map puts them
+        if 1 <= arm <= len(ch):
+            ch[arm - 1] = p.rc_armed_us
+        # Seed 001 flies self-levelled: the angle switch on, in its range and out of horizon's.
+        angle = aux_channel(rc.map_ch, params.get("angle_ch"))
+        if 1 <= angle <= len(ch) and angle != arm:
+            ch[angle - 1] = params.get("angle_max_us") - 1
+        self.overrides += 1
+        ovr.take(f.board.now_us())
+        return None
 
     def _motor(self, cmd, pulse_us):
         """Commands 1-5: the props-off motor test (core/motortest.py) on enabled motors. A pulse above
@@ -456,6 +490,95 @@ class MaintServer(ParsedRequests):
         if name == "throttle_params":
             return (p.get("thr_descend_us"), p.get("thr_hover_us"), p.get("thr_climb_us"))
         return 0
+
+
+class RadioOverride:
+    """Stands in for flight.receiver while the maintenance link flies (maint_override = 1).
+
+    The board's receiver is still read every poll (its bytes drained, its counts and link quality
+    kept, mirrored here for CLI status, MSP and the log), but while the override holds the radio
+    only the maintenance frames reach the flight: two sources taking turns would toggle the arm
+    switch. When they stop, update() reports no frames, so the flight's link watch times out into
+    the failsafe as for a lost receiver. The radio is handed back only once the override has been
+    silent past rx_timeout_ms with the craft disarmed (the failsafe landed it, or the pilot
+    disarmed first), or when maint_override is set to 0 while disarmed."""
+
+    def __init__(self, flight, inner):
+        self.flight = flight
+        self.inner = inner
+        n = len(inner.channels_us)
+        self.channels_us = array("H", [1500] * n)
+        self.frame_us = array("H", [1500] * n)  # the latest override frame, copied in by take()
+        self.holding = False
+        self.fresh = False
+        self.last_us = 0
+        self.frames_taken = 0
+        self.released = 0
+        self._copy_stats()
+
+    def _copy_stats(self):
+        r = self.inner
+        self.provider = getattr(r, "provider", "")
+        self.frames = r.frames
+        self.errors = r.errors
+        self.link_quality_pct = r.link_quality_pct
+        self.rssi_dbm = r.rssi_dbm
+        self.rx_failsafe = r.rx_failsafe
+        self.frame_rate_hz = getattr(r, "frame_rate_hz", 0)
+        self.telemetry = getattr(r, "telemetry", None)
+
+    def take(self, now_us):
+        self.holding = True
+        self.fresh = True
+        self.last_us = now_us
+
+    # the Receiver interface Flight uses
+    def configure(self, params):
+        self.inner.configure(params)
+
+    def start(self, now_us):
+        self.inner.start(now_us)
+
+    def use_core1(self, link):
+        return None  # the override runs in the links task; the second core keeps to its own receiver
+
+    def update(self, now_us, board):
+        new = self.inner.update(now_us, board)
+        self._copy_stats()
+        if not self.holding:
+            if new:
+                src = self.inner.channels_us
+                dst = self.channels_us
+                for k in range(len(dst) if len(dst) < len(src) else len(src)):
+                    dst[k] = src[k]
+            return new
+        f = self.flight
+        if self.fresh:
+            self.fresh = False
+            src = self.frame_us
+            dst = self.channels_us
+            for k in range(len(dst)):
+                dst[k] = src[k]
+            self.frames_taken += 1
+            return 1
+        # SAFETY: a silent override keeps the radio silent while armed, so the failsafe (not the
+        # radio's sticks and arm switch) decides what happens next.
+        if not f.arming.armed and (not f.params.get("maint_override") or ticks_diff(
+                now_us, self.last_us) > f.params.get("rx_timeout_ms") * 1000):
+            self.holding = False
+            self.released += 1
+        return 0
+
+    def frame_age_us(self, now_us):
+        if self.holding:
+            return ticks_diff(now_us, self.last_us)
+        return self.inner.frame_age_us(now_us)
+
+    def telemetry_due(self, now_us):
+        return False if self.holding else self.inner.telemetry_due(now_us)
+
+    def send_telemetry(self, now_us, board, signals, mode, airmode, failsafe, armed, arming_flags):
+        self.inner.send_telemetry(now_us, board, signals, mode, airmode, failsafe, armed, arming_flags)
 
 
 def imu_id(v):

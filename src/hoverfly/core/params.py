@@ -185,6 +185,7 @@ PARAMS = (
     ("ap_max_us",         2100,  900,    2100,   "us",          LIVE,   "autopilot switch range end"),
     ("ap_timeout_ms",      200,   20,    5000,   "ms",          LIVE,   "no MSP RC this long = autopilot silent: pilot or failsafe flies"),
     ("ap_override_pct",     10,    1,     100,   "%",           LIVE,   "pilot roll/pitch stick beyond this replaces the autopilot's"),
+    ("maint_override",       0,    0,       1,   "",            LIVE,   "seed-001 radio override flies, replacing the receiver (link timeout = rx_timeout_ms); 0 = seed 004 rules"),
     # --- configuration links (CLI, MSP, maintenance protocol, storage)
     ("serial_update_hz",   100,  100,    2000,   "Hz",          REBOOT, "configuration links task rate (MSP, CLI, maintenance; Betaflight serial_update_rate_hz), above loop_hz = every pass"),
     # --- flight log

@@ -169,6 +169,9 @@ class SimServer:
         board.storage_path = storage_path
         board.serial = self.ports
         self.storage = Storage(board)
+        # The simulator is flown from the ground station's gamepad over the maintenance port (issue 24):
+        # the seed-001 radio override is on here by default, before the stored set (which may turn it off).
+        self.run.params.set("maint_override", 1)
         self.storage_status = self.storage.load(self.run.params)
         for name, value in overrides:  # over the stored set, as `hoverfly fly --set` (not saved)
             err = self.run.params.set(name, value)
