@@ -70,6 +70,7 @@ for (const b of document.querySelectorAll("#nav button")) b.onclick = () => show
 // ---- top bar ------------------------------------------------------------------------------
 
 let lastLinkUp = null;
+let linkMessage = null;
 
 function updateTopBar() {
   const s = ctx.status;
@@ -109,6 +110,15 @@ function updateTopBar() {
 
   const up = ctx.linkUp();
   if (up !== lastLinkUp) {
+    // Only the backend's link is reported here; the socket says so itself (Socket "state").
+    if (lastLinkUp === true && ctx.socket.open && s) {
+      linkMessage = `link to the controller lost${s.link && s.link.error ? ": " + s.link.error : ""}; reconnecting (controls that need it are disabled)`;
+      showMessage(linkMessage);
+    } else if (up && linkMessage) {
+      clearMessage(linkMessage);
+      linkMessage = null;
+      showMessage("link to the controller back", "info");
+    }
     lastLinkUp = up;
     call(ctx.linkHandlers, up);
   }
@@ -188,7 +198,29 @@ function renderStatus(s) {
       return el;
     }));
   } else if (typeof bits === "number") {
-    bit.textContent = bits === 0 ? "all clear" : `0x${bits.toString(16)}`;
+    // The built-in test word (core/bit.py: bit set = check failing). The backend may name the
+    // failing checks in bit_texts; without it each set bit is listed by number.
+    const texts = Array.isArray(s.bit_texts) ? s.bit_texts : null;
+    if (bits === 0) {
+      const el = document.createElement("span");
+      el.className = "chip ok";
+      el.textContent = "all checks pass";
+      bit.replaceChildren(el);
+    } else {
+      const chips = [];
+      for (let k = 0; k < 32; k++) {
+        if (!(bits & (1 << k))) continue;
+        const el = document.createElement("span");
+        el.className = "chip bad";
+        el.dataset.bit = String(k);
+        el.textContent = texts && texts[chips.length] ? texts[chips.length] : `check ${k} failing`;
+        chips.push(el);
+      }
+      const word = document.createElement("span");
+      word.className = "dim mono";
+      word.textContent = `0x${(bits >>> 0).toString(16)}`;
+      bit.replaceChildren(...chips, word);
+    }
   } else {
     bit.textContent = link.connected ? "all clear" : "—";
   }

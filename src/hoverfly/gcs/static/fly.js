@@ -250,26 +250,17 @@ export function initFly(ctx) {
 
   // ---- aux channels: the flight mode the pilot picked, from the controller's mode ranges ----
 
+  let auxCache = { key: null, aux: [] };
+
   function auxValues() {
     const byName = ctx.params && ctx.params.byName;
-    const aux = [-1, -1, -1, -1];
-    const mode = $("fly-mode") ? $("fly-mode").value : "angle";
-    if (!byName || !byName.size) return aux;
-    const get = (n) => (byName.get(n) ? byName.get(n).value : null);
-    const inRange = (key, us) => get(`${key}_ch`) && us >= get(`${key}_min_us`) && us <= get(`${key}_max_us`);
-    const want = mode === "acro" ? null : mode;
-    const ch = want ? get(`${want}_ch`) : (get("angle_ch") || get("horizon_ch"));
-    if (!ch || ch < 5 || ch > 8) return aux;
-    for (const us of [1000, 1200, 1500, 1800, 2000]) {
-      const ok = want === "angle" ? inRange("angle", us) && !inRange("horizon", us)
-        : want === "horizon" ? inRange("horizon", us)
-          : !inRange("angle", us) && !inRange("horizon", us);
-      if (ok) {
-        aux[ch - 5] = (us - 1500) / 500;
-        break;
-      }
-    }
-    return aux;
+    const mode = $("fly-mode").value;
+    // Without the mode ranges (parameters not read yet) the backend's own defaults stand.
+    if (!byName || !byName.size) return [];
+    const key = `${mode}|${[...byName.keys()].filter((n) => /_(ch|min_us|max_us)$/.test(n))
+      .map((n) => byName.get(n).value).join(",")}`;
+    if (auxCache.key !== key) auxCache = { key, aux: auxFor(mode, (n) => (byName.get(n) ? byName.get(n).value : null)) };
+    return auxCache.aux;
   }
 
   // ---- the 50 Hz loop ---------------------------------------------------------------------
@@ -549,4 +540,37 @@ export function initFly(ctx) {
 
   loadMapping();
   fillAxisSelects(4);
+}
+
+// AUX1..4 (-1..1, AUX1 = channel 5) that put the controller in `mode` ("angle", "horizon", "acro")
+// by its own mode ranges (get(name) reads a parameter): horizon takes priority over angle, as in
+// Betaflight; every other switch with a range (failsafe, autopilot, air mode) is kept out of it.
+// AUX1 is the arm switch, which the backend sets from the arm request. [] when no choice works.
+export function auxFor(mode, get) {
+  const CANDIDATES_US = [1000, 1500, 2000, 1200, 1800];
+  const inRange = (key, aux) => {
+    const ch = get(`${key}_ch`);
+    if (!ch || ch < 5 || ch > 8 || get(`${key}_min_us`) === null) return false;
+    const us = 1500 + 500 * aux[ch - 5];
+    return us >= get(`${key}_min_us`) && us <= get(`${key}_max_us`);
+  };
+  const others = ["fs_switch", "ap", "airmode"].filter((k) => get(`${k}_ch`));
+  const chans = new Set();
+  for (const k of ["angle", "horizon", ...others]) {
+    const ch = get(`${k}_ch`);
+    if (ch >= 6 && ch <= 8) chans.add(ch);
+  }
+  const list = [...chans];
+  const aux = [-1, -1, -1, -1];
+  const total = CANDIDATES_US.length ** list.length;
+  for (let n = 0; n < total; n++) {
+    let m = n;
+    for (const ch of list) {
+      aux[ch - 5] = (CANDIDATES_US[m % CANDIDATES_US.length] - 1500) / 500;
+      m = Math.floor(m / CANDIDATES_US.length);
+    }
+    const active = inRange("horizon", aux) ? "horizon" : inRange("angle", aux) ? "angle" : "acro";
+    if (active === mode && !others.some((k) => inRange(k, aux))) return [...aux];
+  }
+  return [];
 }

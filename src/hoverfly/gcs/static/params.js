@@ -134,7 +134,14 @@ export function initParams(ctx) {
       input.spellcheck = false;
     }
     input.dataset.param = p.name;
-    input.value = show(pending.has(p.name) ? pending.get(p.name) : p.value);
+    if (p.value === null || p.value === undefined) {
+      // the link cannot read this row (the seed's maintenance protocol carries only a few)
+      input.value = "";
+      input.placeholder = "not on this link";
+      input.disabled = true;
+    } else {
+      input.value = show(pending.has(p.name) ? pending.get(p.name) : p.value);
+    }
     input.addEventListener("input", () => edited(p, input, tr));
     input.addEventListener("change", () => edited(p, input, tr));
     const val = document.createElement("td");
@@ -159,7 +166,7 @@ export function initParams(ctx) {
   }
 
   function classify(p, tr) {
-    tr.classList.toggle("changed", !same(p.value, p.default));
+    tr.classList.toggle("changed", p.value !== null && p.value !== undefined && !same(p.value, p.default));
     tr.classList.toggle("pending", pending.has(p.name));
     tr.classList.toggle("invalid", invalid.has(p.name));
     tr.querySelector(".row-error").textContent = invalid.get(p.name) || "";
@@ -194,7 +201,8 @@ export function initParams(ctx) {
     for (const tr of $("param-body").querySelectorAll("tr[data-name]")) {
       const p = byName.get(tr.dataset.name);
       const hay = `${p.name} ${p.help || ""} ${p.group || ""}`.toLowerCase();
-      const show = (!q || hay.includes(q)) && (!changedOnly || !same(p.value, p.default) || pending.has(p.name));
+      const changed = p.value !== null && p.value !== undefined && !same(p.value, p.default);
+      const show = (!q || hay.includes(q)) && (!changedOnly || changed || pending.has(p.name));
       tr.hidden = !show;
       if (show) visibleGroups.add(tr.dataset.group);
     }
@@ -395,8 +403,9 @@ export function initParams(ctx) {
   ctx.onScreen(({ to }) => {
     if (to === "params" && !loaded) load();
   });
+  // A link that comes back may be another controller, or one that rebooted: read the table again
+  // (edits not yet sent are kept).
   ctx.onLink((up) => {
-    if (up && !loaded) load();
+    if (up) load();
   });
-  load();
 }
