@@ -157,3 +157,58 @@ def test_lockstep_json_has_no_wall_clock_overrun_count(capsys):
     assert main(["fly", "--scenario", "hover", "--duration", "1", "--json"]) == 0
     loop = json.loads(capsys.readouterr().out)["loop"]
     assert loop["overruns"] is None and loop["timing"] == "lockstep"
+
+
+def _run_in_pty(argv, interrupt_after_s=None, timeout_s=60):
+    """Run the CLI on a pseudo-terminal as a user's shell would; optionally press Ctrl-C (SIGINT) after a while.
+    Returns (exit code, everything it wrote)."""
+    import pty
+    import select
+    import signal
+    import time
+
+    leader, follower = pty.openpty()
+    proc = subprocess.Popen(argv, stdin=follower, stdout=follower, stderr=follower, close_fds=True)
+    os.close(follower)
+    out = b""
+    start = time.monotonic()
+    sent = False
+    while True:
+        if interrupt_after_s is not None and not sent and time.monotonic() - start > interrupt_after_s:
+            proc.send_signal(signal.SIGINT)
+            sent = True
+        ready, _, _ = select.select([leader], [], [], 0.1)
+        if ready:
+            try:
+                chunk = os.read(leader, 65536)
+            except OSError:  # the child closed the terminal
+                break
+            if not chunk:
+                break
+            out += chunk
+        elif proc.poll() is not None:
+            break
+        assert time.monotonic() - start < timeout_s, out[-2000:]
+    os.close(leader)
+    return proc.wait(timeout=10), out.decode("utf-8", "replace")
+
+
+def test_realtime_shows_a_live_panel_and_events_and_ends_with_the_summary(tmp_path):
+    code, out = _run_in_pty([HOVERFLY, "fly", "--realtime", "--scenario", "hover", "--duration", "3"])
+    assert code == 0
+    assert "hover on 5inch" in out and "altitude" in out and "real time" in out and "ARMED" in out
+    assert "2.00 s armed (switch)" in out  # the event printed as it happened
+    assert out.count("of 3.0 s") >= 10  # the panel was redrawn as the flight went (about 10 times a second)
+    assert "3.0 s flown in" in out and "(wall clock)" in out
+
+
+def test_ctrl_c_on_a_realtime_flight_stops_it_with_a_summary_and_a_readable_log(tmp_path):
+    log = tmp_path / "stopped.ulg"
+    code, out = _run_in_pty([HOVERFLY, "fly", "--realtime", "--scenario", "hover", "--log", str(log)],
+                            interrupt_after_s=3.5)
+    assert code == 130
+    assert "stopped (Ctrl-C) at" in out and "armed, angle mode" in out and "Traceback" not in out
+    assert "log written to %s" % log in out
+    from hoverfly.logs.ulogread import read_summary
+
+    assert 2.0 < read_summary(str(log))["duration_s"] < 5.0

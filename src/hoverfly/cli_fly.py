@@ -31,6 +31,8 @@ def run_fly(args):
         raise UserError("--hil runs the firmware on the device at the port: leave out --firmware")
     if args.baud <= 0:
         raise UserError("--baud must be a positive rate")
+    if args.realtime and not args.json:
+        return _fly_live(args)
     result = fly(args.scenario, args.airframe, args.seed, _parse_set(args.set), args.duration, args.realtime,
                  firmware=args.firmware, micropython=args.micropython, rx=args.rx,
                  esc=args.esc, log_path=args.log, hil=args.hil, baud=args.baud, bundle=args.bundle)
@@ -39,6 +41,30 @@ def run_fly(args):
         sys.stdout.write("\n")
     else:
         print(summary(result))
+    return 0
+
+
+def _fly_live(args):
+    """--realtime: the flight paced to the wall clock under a live panel (cli_live.py); the summary at the end,
+    or where it stood when Ctrl-C stopped it (exit 130, the log closed and readable)."""
+    from hoverfly.cli_live import LiveView
+    from hoverfly.sim.runner import SimRun
+
+    run = SimRun(args.airframe, args.scenario, args.seed, _parse_set(args.set), args.duration, True,
+                 firmware=args.firmware, micropython=args.micropython, rx=args.rx, esc=args.esc, log_path=args.log,
+                 hil=args.hil, baud=args.baud, bundle=args.bundle)
+    view = LiveView(run)
+    try:
+        with view:
+            result = run.run()
+    except KeyboardInterrupt:
+        print(view.interrupted_summary())
+        return 130
+    if run.log is not None:
+        result["log"] = run.log.stats()
+    if run.firmware_stats is not None:
+        result["firmware"] = run.firmware_stats
+    print(summary(result))
     return 0
 
 
@@ -142,7 +168,9 @@ def register(sub):
     p.add_argument("--seed", type=int, default=1, help="random seed for sensor noise")
     p.add_argument("--set", action="append", metavar="NAME=VALUE", help="override a parameter for this flight")
     p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.add_argument("--realtime", action="store_true", help="pace the flight to the wall clock")
+    p.add_argument("--realtime", action="store_true",
+                   help="pace the flight to the wall clock, with a live panel (attitude, altitude, mode, events); "
+                        "Ctrl-C stops it with a summary")
     p.add_argument("--firmware", choices=("cpython", "micropython"), default="cpython",
                    help="where the flight firmware runs: in this process, or under MicroPython over the bridge")
     p.add_argument("--micropython", metavar="PATH", default=None,
