@@ -186,8 +186,15 @@ class SimRun:
         flight.start(boot)
         ev_seen = 0
 
-        stats = {"tilt_sq": 0.0, "tilt_n": 0, "max_tilt": 0.0, "alt_min": 1e9, "alt_max": -1e9,
-                 "drift": 0.0, "takeoff": None, "airborne_at": None}
+        # The judging runs every pass: its running figures are locals, not a dict.
+        tilt_sq = 0.0
+        tilt_n = 0
+        max_tilt = 0.0
+        alt_min = 1e9
+        alt_max = -1e9
+        drift = 0.0
+        takeoff_n = takeoff_e = 0.0
+        airborne_at = None
         judge_from = self.scenario.get("judge_from_s", 0.0)
         steps_open = {}
         steps_done = []
@@ -198,7 +205,6 @@ class SimRun:
         loop_max = 0.0
         overruns = 0
         perf = time.perf_counter
-        wall0 = perf()
         period_s = dt
         frozen = False
         self._imu_stuck = False
@@ -206,16 +212,33 @@ class SimRun:
         output_fs = False
         flips = []
         flip = None
+        next_ev_t = events[0]["t"] if events else math.inf
+        on_event = lambda tu, e, d: self._event(boot, tu, e, d)  # noqa: E731
+        sqrt = math.sqrt
+        cos = math.cos
+        acos = math.acos
+        gyro = board.gyro
+        accel = board.accel
+        q = board.quaternion
+        bat = v.battery
+        motor_cmd = board.motor_cmd
+        servo_cmd = board.servo_cmd
+        flight_events = flight.events
+        realtime = self.realtime
+        wall0 = perf()
 
         for k in range(n_steps):
             t = (k + 1) * dt
             # scenario events due now
-            while ev_i < len(events) and events[ev_i]["t"] <= t + 1e-9:
-                ev = events[ev_i]
-                ev_i += 1
-                gust_until = self._apply_event(ev, t, v, last_cmd, steps_open, steps_done, base_wind) or gust_until
-                if "imu_freeze" in ev or "imu_stuck" in ev:
-                    frozen = ev.get("imu_freeze", False) or ev.get("imu_stuck", False)
+            if next_ev_t <= t + 1e-9:
+                while ev_i < len(events) and events[ev_i]["t"] <= t + 1e-9:
+                    ev = events[ev_i]
+                    ev_i += 1
+                    gust_until = self._apply_event(ev, t, v, last_cmd, steps_open, steps_done,
+                                                   base_wind) or gust_until
+                    if "imu_freeze" in ev or "imu_stuck" in ev:
+                        frozen = ev.get("imu_freeze", False) or ev.get("imu_stuck", False)
+                next_ev_t = events[ev_i]["t"] if ev_i < len(events) else math.inf
             if gust_until is not None and t >= gust_until:
                 v.wind_n, v.wind_e, v.wind_d = base_wind
                 gust_until = None
@@ -226,18 +249,17 @@ class SimRun:
             if board.output_tick() != output_fs:  # the board's output timer: the output failsafe's watchdog
                 output_fs = not output_fs
                 self._output_event(boot, output_fs)
-            v.servo_cmd = board.servo_cmd[0]
-            v.step(dt, board.motor_cmd)
+            v.servo_cmd = servo_cmd[0]
+            v.step(dt, motor_cmd)
             board.sim_us += period_us
             if not frozen:
-                imu.sample(v, board.gyro, board.accel)
+                imu.sample(v, gyro, accel)
                 board.imu_fresh = True
             elif self._imu_stuck:
                 board.imu_fresh = True  # the same sample again: a sensor stuck on its last value
-            q = board.quaternion
             q[0], q[1], q[2], q[3] = v.qw, v.qx, v.qy, v.qz
-            board.battery_v = v.battery.voltage_v
-            board.current_a = v.battery.current_a
+            board.battery_v = bat.voltage_v
+            board.current_a = bat.current_a
             now = board.now_us()
             w0 = perf()
             if t >= self._stall_until:  # a stall event: no pass, while the board's output timer runs on
@@ -253,33 +275,35 @@ class SimRun:
             # judge (on the attitude the pilot saw: at most one loop period old)
             roll, pitch, yaw = euler
             airborne = not v.on_ground
-            if airborne and stats["airborne_at"] is None:
-                stats["airborne_at"] = t
-                stats["takeoff"] = (v.pn, v.pe)
-            alt = v.altitude_m()
-            if stats["airborne_at"] is not None:
-                if alt < stats["alt_min"]:
-                    stats["alt_min"] = alt
-                if alt > stats["alt_max"]:
-                    stats["alt_max"] = alt
-                dn = v.pn - stats["takeoff"][0]
-                de = v.pe - stats["takeoff"][1]
-                d = math.sqrt(dn * dn + de * de)
-                if d > stats["drift"]:
-                    stats["drift"] = d
-            if airborne and t >= judge_from and stats["airborne_at"] is not None \
-                    and t - stats["airborne_at"] > 1.0:
-                c = math.cos(roll) * math.cos(pitch)
-                tilt = math.acos(1.0 if c > 1.0 else (-1.0 if c < -1.0 else c)) * _DEG
-                stats["tilt_sq"] += tilt * tilt
-                stats["tilt_n"] += 1
-                if tilt > stats["max_tilt"]:
-                    stats["max_tilt"] = tilt
-            for meter in steps_open.values():
-                meter.add(t, self._step_signal(meter, v, roll, pitch))
-            if pilot._flip_phase and flip is None:
-                flip = {"axis": pilot.flip_axis, "t_s": round(t, 3), "start_alt_m": alt, "min_alt_m": alt,
-                        "peak_alt_m": alt}
+            if airborne and airborne_at is None:
+                airborne_at = t
+                takeoff_n = v.pn
+                takeoff_e = v.pe
+            alt = -v.pd
+            if airborne_at is not None:
+                if alt < alt_min:
+                    alt_min = alt
+                if alt > alt_max:
+                    alt_max = alt
+                dn = v.pn - takeoff_n
+                de = v.pe - takeoff_e
+                d = sqrt(dn * dn + de * de)
+                if d > drift:
+                    drift = d
+                if airborne and t >= judge_from and t - airborne_at > 1.0:
+                    c = cos(roll) * cos(pitch)
+                    tilt = acos(1.0 if c > 1.0 else (-1.0 if c < -1.0 else c)) * _DEG
+                    tilt_sq += tilt * tilt
+                    tilt_n += 1
+                    if tilt > max_tilt:
+                        max_tilt = tilt
+            if steps_open:
+                for meter in steps_open.values():
+                    meter.add(t, self._step_signal(meter, v, roll, pitch))
+            if flip is None:
+                if pilot._flip_phase:
+                    flip = {"axis": pilot.flip_axis, "t_s": round(t, 3), "start_alt_m": alt, "min_alt_m": alt,
+                            "peak_alt_m": alt}
             if flip is not None:
                 # Height lost: from the highest point of the manoeuvre to the lowest after it.
                 if alt > flip["peak_alt_m"]:
@@ -296,8 +320,9 @@ class SimRun:
                     flip["min_alt_m"] = round(flip["min_alt_m"], 3)
                     flips.append(flip)
                     flip = None
-            ev_seen = flight.events.drain(ev_seen, lambda tu, e, d: self._event(boot, tu, e, d))
-            if self.realtime:
+            if flight_events.count != ev_seen:
+                ev_seen = flight_events.drain(ev_seen, on_event)
+            if realtime:
                 lag = (wall0 + t) - perf()
                 if lag > 0:
                     time.sleep(lag)
@@ -308,7 +333,7 @@ class SimRun:
         steps_done.sort(key=lambda m: m.t0_s)
         sim_time = n_steps * dt
         alt_now = v.altitude_m()
-        n_tilt = stats["tilt_n"]
+        n_tilt = tilt_n
         sched = flight.scheduler
         return {
             "scenario": self.scenario["name"],
@@ -321,14 +346,14 @@ class SimRun:
             "crashed": v.crashed,
             "armed": flight.arming.armed,
             "events": self.events_out,
-            "tilt_rms_deg": round(math.sqrt(stats["tilt_sq"] / n_tilt), 3) if n_tilt else 0.0,
-            "max_tilt_deg": round(stats["max_tilt"], 2),
+            "tilt_rms_deg": round(math.sqrt(tilt_sq / n_tilt), 3) if n_tilt else 0.0,
+            "max_tilt_deg": round(max_tilt, 2),
             "altitude_m": {
-                "min": round(stats["alt_min"], 3) if stats["airborne_at"] is not None else 0.0,
-                "max": round(stats["alt_max"], 3) if stats["airborne_at"] is not None else 0.0,
+                "min": round(alt_min, 3) if airborne_at is not None else 0.0,
+                "max": round(alt_max, 3) if airborne_at is not None else 0.0,
                 "final": round(alt_now, 3),
             },
-            "horizontal_drift_m": round(stats["drift"], 3),
+            "horizontal_drift_m": round(drift, 3),
             "steps": [m.result() for m in steps_done],
             "flips": flips,
             "loop": {
