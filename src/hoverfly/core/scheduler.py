@@ -25,13 +25,14 @@ period, and overruns. `HeapWatch` tells a board's loop when to collect garbage i
 import sys
 from array import array
 
-from hoverfly.compat import TICKS_HALF, accel_module, const, ticks_add, ticks_diff
+from hoverfly.compat import IS_MICROPYTHON, TICKS_HALF, const, ticks_add, ticks_diff
 
 # How far ahead the slow tasks' time lies when there are none: within ticks_diff's range.
 _FAR_US = TICKS_HALF - 1
 
 # Scheduler.stats, the pass statistics in one array: the pass's own bookkeeping is then one call of
-# pass_stats (on MicroPython its viper twin, accel/sched.py: no bytecode frame, no attribute look-ups).
+# pass_stats (on MicroPython its viper twin, accel/sched.py generated from it by hoverfly.fastgen: no bytecode
+# frame, no attribute look-ups).
 PS_PASSES = const(0)  # passes, all told (wraps at COUNT_MASK)
 PS_CYCLE = const(1)  # the last pass's cycle time, µs
 PS_CYCLE_MAX = const(2)
@@ -42,6 +43,7 @@ PS_SIZE = const(6)
 COUNT_MASK = const(0x3FFFFFFF)  # small ints on a 32-bit port; a cycle time is clamped to it
 
 
+# fastpass: pass_stats ps:i
 def pass_stats(ps, cycle_us):
     """Record one pass, cycle_us after the last one, into ps (Scheduler.stats)."""
     if cycle_us > COUNT_MASK:
@@ -58,7 +60,12 @@ def pass_stats(ps, cycle_us):
         ps[PS_JITTER_MAX] = j
 
 
-_viper = accel_module("sched")
+_viper = None
+if IS_MICROPYTHON:
+    try:  # generated from pass_stats above by hoverfly.fastgen; absent, or a port without viper: the Python runs
+        from hoverfly.accel import sched as _viper
+    except (ImportError, SyntaxError, NameError, ValueError, TypeError):  # TypeError: ViperTypeError
+        pass
 fast_pass_stats = _viper.pass_stats if _viper is not None else pass_stats
 
 _exc_info = getattr(sys, "exc_info", None)  # MicroPython ports without it: _Capture
