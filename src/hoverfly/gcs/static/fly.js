@@ -14,6 +14,7 @@
 const $ = (id) => document.getElementById(id);
 
 const SEND_PERIOD_MS = 20;     // 50 Hz, the rate of a typical RC link frame
+const RENDER_EVERY = 4;        // redraw the cockpit every 4th tick (12.5 Hz): the main thread stays free for sending
 const CENTRE_TOL = 0.1;        // |stick| below this counts as centred for the interlock
 const THROTTLE_LOW = 0.05;     // throttle below this counts as low for the interlock
 const THROTTLE_DEADBAND = 0.03; // the throttle's bottom this far reads as exactly zero, the only value that arms
@@ -87,10 +88,14 @@ export function initFly(ctx) {
     sent: 0,
     sendHz: 0,
     fcArmed: false,
+    lastSentMs: 0,
+    maxGapMs: 0,           // longest time between two sends in the current second
+    gapMs: 0,              // ... in the last whole second (the backend gives up after 250 ms)
   };
   const keys = new Set();
   let keyThrottle = 0;
   let lastTickMs = performance.now();
+  let renderCount = 0;
   let mapping = { ...DEFAULT_MAP };
   let invert = { ...DEFAULT_INVERT };
   let cal = {};            // axis index -> {centre, min, max}
@@ -300,6 +305,7 @@ export function initFly(ctx) {
     if (sticks) st.sticks = sticks;
     const linkUp = ctx.linkUp();
 
+    if (!st.sending) st.lastSentMs = 0;
     if (!sticks || st.calibrating || document.hidden) {
       st.sending = false;
       if (st.calibrating || document.hidden) st.armRequested = false;
@@ -327,19 +333,38 @@ export function initFly(ctx) {
         aux: auxValues(),
       };
       st.sending = ctx.socket.send(msg);
-      if (st.sending) st.sent++;
+      if (st.sending) {
+        st.sent++;
+        if (st.lastSentMs) st.maxGapMs = Math.max(st.maxGapMs, now - st.lastSentMs);
+        st.lastSentMs = now;
+      }
     }
-    render();
+    if (++renderCount % RENDER_EVERY === 0) render();
   }
 
   function round(x) {
     return Math.round(x * 1000) / 1000;
   }
 
-  setInterval(tick, SEND_PERIOD_MS);
+  // A deadline schedule rather than setInterval: on a busy machine a late tick is followed by a
+  // prompt one, so the rate the backend sees stays near 50 Hz instead of drifting down.
+  let nextTickMs = performance.now();
+  function loop() {
+    try {
+      tick();
+    } finally {
+      const now = performance.now();
+      nextTickMs += SEND_PERIOD_MS;
+      if (nextTickMs < now - 5 * SEND_PERIOD_MS) nextTickMs = now; // after a stall, do not burst
+      setTimeout(loop, Math.max(0, nextTickMs - now));
+    }
+  }
+  loop();
   setInterval(() => {
     st.sendHz = st.sent;
     st.sent = 0;
+    st.gapMs = st.maxGapMs;
+    st.maxGapMs = 0;
   }, 1000);
 
   // ---- arming -----------------------------------------------------------------------------
@@ -365,8 +390,13 @@ export function initFly(ctx) {
     st.armRequested = true;
   };
 
+  // SAFETY: the backend refused the arm request (or dropped it, e.g. after sticks went stale):
+  // the page drops it as well, so arming again takes a new press with the throttle at zero.
   ctx.socket.on("error", (text) => {
-    if (st.armRequested && !st.fcArmed && /arm/i.test(text)) st.armRequested = false;
+    if (st.armRequested && /arm/i.test(text)) {
+      st.armRequested = false;
+      showMessage(`arm request dropped: ${text}`);
+    }
   });
 
   ctx.onStop(() => {
@@ -486,7 +516,7 @@ export function initFly(ctx) {
       ? "throttle must be at zero to arm" : armRefusal();
     $("fly-gamepad").textContent = st.source === "keyboard" ? "keyboard"
       : st.padIndex === null ? "none" : `${st.padId} (#${st.padIndex})`;
-    $("fly-sending").textContent = st.sending ? `yes, ${st.sendHz} Hz` : "no";
+    $("fly-sending").textContent = st.sending ? `yes, ${st.sendHz} Hz, longest gap ${Math.round(st.gapMs)} ms` : "no";
     if (ctx.screen !== "fly") return;
     $("fly-link").textContent = !ctx.socket.open ? "ground station offline"
       : !ctx.linkUp() ? "controller link down" : ctx.telemetryFresh() ? "ok" : "no telemetry";
