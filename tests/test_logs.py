@@ -291,3 +291,51 @@ def test_info_params_csv_and_plot_commands(rate_steps, tmp_path, capsys):
     assert main(["log", "plot", path, "--out", str(tmp_path / "p"), "--only", "motors"]) == 0
     assert os.listdir(tmp_path / "p") == ["motors.png"]
     assert main(["log", "plot", path, "--only", "nonsense"]) == 2
+
+
+def test_the_attitude_plot_has_the_angle_set_point_in_angle_mode_only(tmp_path):
+    from hoverfly.logs.plot import angle_setpoint_deg
+
+    path = str(tmp_path / "angle.ulg")
+    fly("angle-steps", "5inch", seed=7, duration_s=6.5, log_path=path)
+    t, sp = angle_setpoint_deg(load(path))
+    at = lambda s: sp[np.searchsorted(t, s), 0]  # noqa: E731
+    assert at(4.9) == pytest.approx(0.0, abs=0.5) and at(5.5) == pytest.approx(30.0, abs=0.5)  # the roll step
+    assert at(6.2) == pytest.approx(0.0, abs=0.5)
+
+
+def test_no_angle_set_point_is_drawn_while_in_acro(rate_steps):
+    from hoverfly.logs.plot import angle_setpoint_deg
+
+    t, sp = angle_setpoint_deg(load(rate_steps[1]))
+    acro = (t > 5.1) & (t < 8.1)
+    assert np.isnan(sp[acro]).all() and not np.isnan(sp[(t > 1.0) & (t < 4.9)]).any()
+
+
+def test_the_spectrum_marks_the_filter_cut_offs_the_flight_ran_with(tmp_path):
+    from hoverfly.logs.plot import filter_cutoffs
+
+    path = str(tmp_path / "f.ulg")
+    fly("hover", "5inch", seed=1, duration_s=1.0, log_path=path,
+        overrides=[("gyro_lpf1_hz", 180), ("gyro_lpf2_hz", 300), ("gyro_notch1_hz", 220), ("gyro_notch1_cut", 160)])
+    hz = [c[0] for c in filter_cutoffs(load(path))]
+    assert hz == [180, 300, 220, 75]  # lpf1, lpf2 (below Nyquist), the notch, the D-term low-pass
+
+
+def test_pid_panels_scale_to_p_i_d_not_to_feed_forward_spikes(rate_steps):
+    from hoverfly.logs.plot import _robust_lim
+
+    pid = load(rate_steps[1]).topic("hoverfly_pid")
+    lo, hi = _robust_lim([pid["p[0]"], pid["i[0]"], pid["d[0]"]])
+    assert hi < 0.5 * float(np.max(np.abs(pid["f[0]"])))  # F's spikes would have flattened the terms
+    assert hi >= float(np.percentile(np.abs(pid["p[0]"]), 99))
+
+
+def test_replay_plots_say_open_loop_and_name_the_changed_parameters(rate_steps, tmp_path):
+    from hoverfly.logs.replay import _title, _zoom_window, replay
+
+    r = replay(load(rate_steps[1]), [("p_roll", 70)])
+    assert "open loop" in _title(r, "PID terms") and "p_roll=70" in _title(r, "PID terms")
+    t0, t1 = _zoom_window(r, ["p_roll"])
+    i = int(np.argmax(np.abs(r.new["p_roll"] - r.old["p_roll"])))
+    assert t0 <= r.t_s[i] <= t1 and t1 - t0 == pytest.approx(0.6)

@@ -91,7 +91,12 @@ def _mark(log, axs, label_top=True):
     handles += [Line2D([], [], color=style[k][0], ls=style[k][1], label=k) for k in ("armed", "disarmed", "failsafe")
                 if k in kinds]
     if handles and label_top:
-        axs[0].figure.legend(handles=handles, loc="upper right", ncol=len(handles), fontsize=8, frameon=False)
+        # In the bottom panel's lower right, beside (not over) that panel's own legend and the title.
+        ax = axs[-1]
+        own = ax.get_legend()
+        ax.legend(handles=handles, loc="lower right", ncol=len(handles), fontsize=7, framealpha=0.8)
+        if own is not None:
+            ax.add_artist(own)
 
 
 def angle_setpoint_deg(log):
@@ -137,7 +142,8 @@ def plot_attitude(log, path):
         ax.grid(alpha=0.3)
         ax.legend(loc="lower left", fontsize=8)
     _mark(log, axs)
-    axs[0].set_title("Attitude against the angle set point", loc="left")
+    axs[0].set_title("Attitude against the angle set point (angle/horizon mode; acro flies a rate set point: "
+                     "rates.png)", loc="left", fontsize=10)
     axs[-1].set_xlabel("time (s)")
     return _save(fig, path)
 
@@ -150,8 +156,8 @@ def plot_rates(log, path):
     t = log.topic("vehicle_angular_velocity")["t_s"]
     fig, axs = plt.subplots(3, 1, figsize=(11, 7.5), sharex=True)
     for i, ax in enumerate(axs):
-        ax.plot(sp["t_s"], sp[AXES[i]] * _DEG, lw=0.9, color="tab:orange", label="rate set point")
-        ax.plot(t, g[:, i] * _DEG, lw=0.7, color="tab:blue", label="gyro (filtered)")
+        ax.plot(t, g[:, i] * _DEG, lw=0.7, color="tab:blue", label="gyro (filtered)", zorder=2)
+        ax.plot(sp["t_s"], sp[AXES[i]] * _DEG, lw=1.1, color="tab:orange", label="rate set point", zorder=3)
         ax.set_ylabel(AXES[i] + " (deg/s)")
         ax.grid(alpha=0.3)
         ax.legend(loc="lower left", fontsize=8)
@@ -304,6 +310,11 @@ def plot_spectrogram(log, path):
         extent = (freq[0], freq[-1], edges[0] * 100, edges[-1] * 100)
         m = ax.imshow(img, aspect="auto", origin="lower", extent=extent,
                       cmap="viridis", interpolation="nearest")
+        for hz, label in filter_cutoffs(log):
+            if "dterm" not in label:
+                ax.axvline(hz, color="w", ls="--", lw=0.9)
+                ax.text(hz, edges[-1] * 100 - 3, " " + label.split(" (")[0], color="w", fontsize=7, va="top",
+                        rotation=90)
         ax.set_title(AXES[i])
         ax.set_xlabel("frequency (Hz)")
         drawn = True
@@ -312,7 +323,8 @@ def plot_spectrogram(log, path):
         return None
     axs[0].set_ylabel("throttle (%)")
     fig.colorbar(m, ax=axs, label="log10 amplitude (deg/s)")
-    fig.suptitle("Raw gyro spectrum against throttle")
+    fig.suptitle("Raw gyro spectrum against throttle (blank: throttle never flown there; dashed: gyro filter "
+                 "cut-offs)")
     fig.savefig(path, dpi=90)
     plt.close(fig)
     return path
