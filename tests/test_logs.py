@@ -339,3 +339,14 @@ def test_replay_plots_say_open_loop_and_name_the_changed_parameters(rate_steps, 
     t0, t1 = _zoom_window(r, ["p_roll"])
     i = int(np.argmax(np.abs(r.new["p_roll"] - r.old["p_roll"])))
     assert t0 <= r.t_s[i] <= t1 and t1 - t0 == pytest.approx(0.6)
+
+
+def test_a_log_at_half_the_loop_rate_gives_the_flight_s_step_figures(tmp_path):
+    from hoverfly.logs.analysis import log_steps
+
+    path = str(tmp_path / "rs500.ulg")
+    flown = fly("rate-steps", "5inch", seed=7, log_path=path, overrides=[("blackbox_rate_hz", 500)])["steps"]
+    logged = log_steps(load(path))
+    assert len(logged) == len(flown) == 6
+    for f, lg in zip(flown, logged, strict=True):
+        _agree(f, lg, "fly against a 500 Hz log")
