@@ -313,8 +313,8 @@ def plot_spectrogram(log, path):
         for hz, label in filter_cutoffs(log):
             if "dterm" not in label:
                 ax.axvline(hz, color="w", ls="--", lw=0.9)
-                ax.text(hz, edges[-1] * 100 - 3, " " + label.split(" (")[0], color="w", fontsize=7, va="top",
-                        rotation=90)
+                ax.text(hz, edges[-1] * 100 - 3, label.split(" (")[0], color="k", fontsize=7, va="top", ha="center",
+                        rotation=90, bbox={"facecolor": "w", "edgecolor": "none", "alpha": 0.8, "pad": 1})
         ax.set_title(AXES[i])
         ax.set_xlabel("frequency (Hz)")
         drawn = True
@@ -340,7 +340,7 @@ def plot_step_response(log, path, steps=None):
         key = (st["axis"], st["mode"])
         if key not in groups:
             groups.append(key)
-    fig, axs = plt.subplots(1, len(groups), figsize=(4.6 * len(groups) + 1, 4.6), squeeze=False, sharey=True)
+    fig, axs = plt.subplots(1, len(groups), figsize=(max(8.0, 4.6 * len(groups) + 1), 4.6), squeeze=False, sharey=True)
     axs = axs[0]
     for ax, (axis, mode) in zip(axs, groups, strict=True):
         for st in steps:
@@ -358,7 +358,7 @@ def plot_step_response(log, path, steps=None):
         ax.grid(alpha=0.3)
         ax.legend(loc="center right", fontsize=7)
     axs[0].set_ylabel("response / step (1 = set point reached)")
-    fig.suptitle("Step response of each held stick step (the same measurement as hoverfly fly)")
+    fig.suptitle("Step response of each held stick step (the same measurement as hoverfly fly)", fontsize=10)
     return _save(fig, path)
 
 
