@@ -82,7 +82,7 @@ export async function api(method, path, body, { quiet = false, text = false } = 
   if (!res.ok) {
     let why = (data && typeof data === "object" && data.error) ? data.error : "";
     if (!why) why = (typeof data === "string" && data && data.length < 200) ? data : res.statusText;
-    if (res.status === 401 || res.status === 403) {
+    if ((res.status === 401 || res.status === 403) && !why.includes("URL")) {
       why = `${why || "refused"} (open the page from the link \`hoverfly gcs\` printed: it carries the token)`;
     }
     const err = new ApiError(`${method} ${path}: ${why}`);

@@ -229,6 +229,17 @@ export function initMaint(ctx) {
     else stopPolling();
   });
 
+  // The seed's commands travel only on a maintenance port; on an MSP/CLI port the backend refuses
+  // them, so the screen says so up front rather than after each Send.
+  ctx.onStatus((s) => {
+    const proto = s.link && s.link.protocol;
+    const note = $("maint-note");
+    note.hidden = proto !== "msp";
+    note.textContent = proto === "msp"
+      ? "This port speaks MSP + CLI: the seed-001 commands and header-field telemetry need the maintenance port (hoverfly sim serves it on its --maint-port, 5762 by default; on a Pico, UART0 through the HC-05, /dev/rfcomm0)."
+      : "";
+  });
+
   ctx.onScreen(({ to }) => {
     if (to === "maint" && !loaded) load();
     if (to !== "maint") stopPolling();

@@ -57,6 +57,9 @@ export function initParams(ctx) {
       byName.clear();
       for (const p of rows) byName.set(p.name, p);
       loaded = true;
+      const readable = rows.filter((p) => p.value !== null && p.value !== undefined).length;
+      $("param-note").textContent = readable < rows.length
+        ? `this link reads ${readable} of ${rows.length} parameters (the others need the MSP/CLI port)` : "";
       render();
       loadDiff();
       for (const fn of ctx.paramHandlers) fn(byName);
