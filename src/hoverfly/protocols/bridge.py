@@ -97,6 +97,17 @@ def crc8(buf, start, end):
     return c
 
 
+def frame_crc_ok(head, body, n):
+    """True if body[n] is the CRC of a frame read in two parts: head = kind, len_lo, len_hi and
+    body = the n payload bytes, then the CRC. For a reader that has already framed the stream by
+    its lengths (the firmware's serve loop): the CRC alone, without the decoder's byte-wise hunt."""
+    t = _CRC
+    c = t[t[t[head[0]] ^ head[1]] ^ head[2]]
+    for i in range(n):
+        c = t[c ^ body[i]]
+    return c == body[n]
+
+
 def finish(buf, kind, payload_len):
     """Write the header and CRC around a payload already at buf[4:4 + payload_len]; total length.
 
