@@ -627,8 +627,11 @@ class Session:
                 except GcsError:
                     pass
             fresh = self.sticks is not None and now - self.sticks_at < STICKS_STALE_S
-            if not fresh and self.arm and self.sticks is not None:
-                self.arm = False  # stale sticks drop the arm request too: the next arm needs throttle zero again
+            if not fresh and self.arm and not self.state["armed"]:
+                # Stale sticks and a disarmed controller (never armed, or the failsafe landed it): the arm
+                # request goes, so the next arm needs the throttle at zero again. While the controller is
+                # still armed it stays: sticks coming back after a gap must not send a disarm in the air.
+                self.arm = False
             self._ticks += 1
             try:
                 if self.protocol == "maint":
