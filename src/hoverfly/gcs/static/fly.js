@@ -318,6 +318,10 @@ export function initFly(ctx) {
         st.lost = null;
       }
       st.sending = false;
+    } else if (ctx.screen !== "fly" && !st.armRequested && !st.fcArmed) {
+      // The Fly screen takes control: a pad left plugged in while configuring sends nothing. Once
+      // armed, sticks keep going from any screen, so a look at Status does not drop the craft.
+      st.sending = false;
     } else if (!linkUp) {
       // SAFETY: no link, no arm request carried over to when it returns.
       st.sending = false;
@@ -487,6 +491,9 @@ export function initFly(ctx) {
     if (st.source === "gamepad" && st.padIndex === null) return ["no gamepad: connect one and press a button", "none"];
     if (!st.ready) return ["waiting: centre the sticks and pull the throttle to zero", "interlock"];
     if (!ctx.linkUp()) return ["no link: not sending", "nolink"];
+    if (!st.sending && !st.armRequested && !st.fcArmed && ctx.screen !== "fly") {
+      return ["standby: sticks are sent only from the Fly screen", "standby"];
+    }
     if (st.fcArmed) return ["ARMED", "armed"];
     if (st.armRequested) return ["arming…", "arming"];
     if (st.ready && st.sticks.throttle > 0) return ["ready, disarmed (throttle up: lower it to arm)", "ready"];
@@ -504,6 +511,9 @@ export function initFly(ctx) {
     // The state text is kept current on every screen (it is what a test or a glance reads);
     // the rest is drawn only while the Fly screen is shown.
     const [text, code] = stateText();
+    const chip = $("fly-chip");
+    chip.hidden = !st.sending;
+    chip.textContent = st.armRequested || st.fcArmed ? "sticks: flying" : "sticks: sending";
     const el = $("fly-state");
     el.textContent = text;
     el.dataset.state = code;

@@ -120,7 +120,13 @@ export function initParams(ctx) {
     const name = document.createElement("td");
     name.className = "name";
     name.textContent = p.name;
-    if (p.reboot || p.applies === "reboot" || p.applies === "REBOOT") name.title = "takes effect after a reboot";
+    if (p.reboot || p.applies === "reboot" || p.applies === "REBOOT") {
+      const badge = document.createElement("span");
+      badge.className = "badge";
+      badge.textContent = "reboot";
+      badge.title = "takes effect after a save and reboot";
+      name.append(" ", badge);
+    }
     let input;
     if (p.choices && p.choices.length) {
       input = document.createElement("select");
