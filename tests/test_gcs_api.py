@@ -425,3 +425,64 @@ def test_sticks_that_stop_in_flight_end_in_the_controllers_failsafe(sim, gcs_mai
     assert _until(lambda: sim.msp_status()[1], 2.0), "no failsafe after the sticks stopped"
     assert time.monotonic() - t_lost < 1.0
     assert gcs_maint.session.override == "stopped"
+
+
+# ------------------------------------------------------------ the override path, flown in lockstep
+def _fly_override(maint_override, stop_at_s, duration_s=14.0):
+    """A lockstep sim whose radio holds the arm switch off, and a maintenance client sending the seed-001
+    override at 50 Hz: arm switch off until 1.5 s, then armed at zero throttle, up to a 2 m hover, until stop_at_s."""
+    from hoverfly.core.maintserver import MaintServer
+    from hoverfly.protocols import maintenance as mp
+    from hoverfly.sim.runner import SimRun
+
+    scenario = {"name": "override", "duration_s": duration_s, "mode": "angle", "events": [], "params": {}}
+    run = SimRun("5inch", scenario, seed=3, overrides=(("maint_override", maint_override),))
+    server = MaintServer(run.flight)
+    replies = []
+    hover = run.pilot.hover_guess / 0.9
+
+    def on_step(r):
+        t = r.board.sim_us * 1e-6
+        if r.board.sim_us % 20000 or t < 1.0 or t >= stop_at_s:
+            return
+        arm = 2000 if t >= 1.5 else 1000
+        v = r.vehicle  # the pilot holds 2 m on the throttle, as the browser test's pilot does
+        thr = 1000 if t < 2.0 else 1000 + int(1000 * min(0.9, max(0.0, hover + 0.08 * (2.0 - v.altitude_m())
+                                                                     + 0.06 * v.vd)))
+        frame = mp.encode_request([], 0, (), (1, arm, 1500, 1500, thr))
+        out = []
+        server.feed(frame, len(frame), out.append)
+        replies.append(mp.header_cmd(out[0][1:9]))
+
+    run.on_step = on_step
+    return run.run(), server, replies
+
+
+def _ev(report, name):
+    return [e["t_s"] for e in report["events"] if e["event"] == name]
+
+
+def test_the_override_flies_in_place_of_the_radio_and_its_silence_is_a_failsafe():
+    report, server, replies = _fly_override(1, stop_at_s=5.0)
+    assert set(replies) == {0}  # every override taken
+    armed = _ev(report, "armed")
+    assert armed and 1.5 <= armed[0] < 1.7  # the radio's arm switch is off all along: the override armed it
+    assert report["altitude_m"]["max"] > 1.0
+    lost = _ev(report, "rx_lost")
+    assert lost and 4.95 <= lost[-1] < 5.0  # the loss is stamped with the last frame taken
+    stage1 = [t for t in _ev(report, "failsafe_stage1") if t >= 5.0]
+    assert stage1 and stage1[0] <= 5.0 + 0.1 + 0.03  # rx_timeout_ms after it, at the 100 Hz safety task
+    assert [t for t in _ev(report, "failsafe_stage2") if t >= 5.0]
+    disarmed = _ev(report, "disarmed")
+    assert disarmed and disarmed[-1] > 5.5 and not report["armed"] and not report["crashed"]
+    assert report["altitude_m"]["final"] < 0.1
+    # landed and disarmed: the radio has the craft again
+    assert [t for t in _ev(report, "rx_restored") if t > disarmed[-1]]
+    assert server.flight.receiver.released == 1
+
+
+def test_the_override_is_refused_without_maint_override_and_nothing_arms():
+    report, server, replies = _fly_override(0, stop_at_s=4.0, duration_s=5.0)
+    assert replies and set(replies) == {127}
+    assert server.last_error == "autopilot switch is off"
+    assert not _ev(report, "armed") and report["altitude_m"]["max"] == 0.0

@@ -18,6 +18,7 @@ import threading
 import time
 
 from hoverfly.core.arming import REASONS
+from hoverfly.core.bit import CHECK_NAMES
 from hoverfly.core.cliserver import format_value
 from hoverfly.core.params import PARAMS, REBOOT, check, is_choice
 from hoverfly.errors import UserError
@@ -761,7 +762,7 @@ class Session:
 
     # ---------------------------------------------------------------- jitter
     def refresh_loop_stats(self):
-        """CLI `status` for the loop's jitter (MSP carries the cycle time only); MSP port, disarmed."""
+        """CLI `status` for the loop's jitter and the built-in test (MSP carries neither); MSP port, disarmed."""
         if self.protocol != "msp" or self.state["armed"]:
             return
         try:
@@ -769,6 +770,9 @@ class Session:
         except GcsError:
             return
         for line in lines:
+            if line.startswith("Built-in test:"):
+                failing = [w.strip() for w in line.split(":", 1)[1].split(",")]
+                self.state["bit_flags"] = sum(1 << k for k, name in enumerate(CHECK_NAMES) if name in failing)
             if line.startswith("Loop:") and "jitter max" in line:
                 try:
                     self.state["jitter_us"] = int(line.split("jitter max")[1].split("us")[0])
