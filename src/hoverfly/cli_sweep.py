@@ -12,7 +12,7 @@ def _fmt(v):
     if v is None:
         return "-"
     if isinstance(v, float):
-        return "%.3g" % v
+        return "%.3g" % (v + 0.0)  # + 0.0: a -0.0 reads as 0
     return str(v)
 
 

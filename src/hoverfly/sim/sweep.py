@@ -332,7 +332,10 @@ def plot(rows, directory, scenario):
         if len(xs) < 2:
             continue
         fig, ax = plt.subplots(figsize=(7, 4))
-        ax.hist(xs, bins=min(40, max(5, len(xs) // 5)), color="#4477aa")
+        flown = [r[m] for r in rows if r.get(m) is not None and not r["crashed"]]
+        crashed = [r[m] for r in rows if r.get(m) is not None and r["crashed"]]
+        ax.hist([flown, crashed], bins=min(40, max(5, len(xs) // 5)), stacked=True, color=["#4477aa", "#cc3311"],
+                label=["flights (%d)" % len(flown), "crashed (%d)" % len(crashed)])
         for pct, style in ((50, "-"), (95, "--")):
             v = percentile(xs, pct)
             ax.axvline(v, color="k", linestyle=style, label="p%d %.3g" % (pct, v))
