@@ -486,3 +486,15 @@ def test_the_override_is_refused_without_maint_override_and_nothing_arms():
     assert replies and set(replies) == {127}
     assert server.last_error == "autopilot switch is off"
     assert not _ev(report, "armed") and report["altitude_m"]["max"] == 0.0
+
+
+def test_sticks_on_an_msp_port_say_why_the_controller_refuses_them(sim, gcs_msp):
+    assert _until(lambda: gcs_msp.telemetry()["link_ok"])
+    pad = Gamepad(gcs_msp, 0.0, False)
+    try:
+        refusal = _until(lambda: gcs_msp.get("/api/status").json()["override_refusal"], 3.0)
+    finally:
+        pad.stop()
+    # MSP_SET_RAW_RC is the companion computer's source (seed 004): refused until its procedure runs
+    assert refusal and "autopilot switch is off" in refusal
+    assert not sim.msp_status()[0]

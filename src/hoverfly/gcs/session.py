@@ -157,6 +157,7 @@ class Session:
         self.motor_props = False
         self.motor_stops = 0
         self._ticks = 0
+        self._reason_at = 0.0
         self._last_try = 0.0
         self._stop = threading.Event()
         self._thread = None
@@ -689,7 +690,7 @@ class Session:
                 self.client.request(msp.MSP_SET_RAW_RC, msp.pack_set_raw_rc([roll, pitch, thr, yaw] + aux[:4]))
                 self.override_refusal = None
             except Refused as exc:
-                self.override_refusal = str(exc)
+                self.override_refusal = self._rc_refusal(exc)
             self.rc_sent += 1
         t = dict(self.telemetry)
         t["link_ok"] = True
@@ -733,6 +734,19 @@ class Session:
         t["armed"] = self.state["armed"]
         t["mode"] = self.state["mode"]
         self.telemetry = t
+
+    def _rc_refusal(self, exc):
+        """Why MSP_SET_RAW_RC was refused, in the controller's words (seed 004's autopilot state says; an
+        MSP error frame carries none), read at most once a second."""
+        now = time.monotonic()
+        if now - self._reason_at < 1.0 and self.override_refusal:
+            return self.override_refusal
+        self._reason_at = now
+        try:
+            st = self.client.autopilot()
+        except LinkError:
+            return str(exc)
+        return "MSP RC refused: %s (on this port MSP RC follows seed 004's autopilot rules)" % st["last_reason"]
 
     def _msp_batch(self, cmds):
         """Send every request at once and collect the replies: one round trip for the lot."""
