@@ -65,7 +65,8 @@ def run_tune(args):
     progress, stop = _progress(args.trials, args.quiet)
     try:
         result = tune.tune(airframe, trials=args.trials, train_seeds=train, check_seeds=check, workers=workers,
-                           sampler_seed=args.sampler_seed, progress=progress)
+                           sampler_seed=args.sampler_seed, progress=progress,
+                           start_from_hand=not args.from_defaults)
     finally:
         stop()
     if result["interrupted"]:
@@ -116,6 +117,8 @@ def register(sub):
     p.add_argument("--check-seeds", type=int, default=3, help="unseen seeds the result is checked on (default 3)")
     p.add_argument("--workers", type=int, default=None, help="local worker processes (default: one per core)")
     p.add_argument("--sampler-seed", type=int, default=0, help="the search's own seed (default 0)")
+    p.add_argument("--from-defaults", action="store_true",
+                   help="start the search from the default gains, not the airframe's [params]")
     p.add_argument("--out", metavar="FILE", help="where to save the diff (default: AIRFRAME-tune.txt here)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run_tune)

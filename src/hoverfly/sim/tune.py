@@ -12,9 +12,10 @@ rate steps in acro, angle steps, then knocks on roll and pitch) and is scored on
 A flight that crashes, tips over, loses height or ends disarmed makes the proposal unflyable.
 
 The airframe's own [params] (its hand tune, or the defaults) are the first proposal, so the search
-starts from them. The best proposals are then flown on check seeds the search never saw; the first
-that flies every one of them is the result, shown against the hand tune. If none does, or nothing
-the search tried could fly, tune() raises UserError: never gains that crash.
+starts from them (or from the defaults: `start_from_hand=False`). The best proposals are then
+flown on check seeds the search never saw; the first that flies every one of them is the result,
+shown against the hand tune. If none does, or nothing the search tried could fly, tune() raises
+UserError: never gains that crash.
 CPython only.
 """
 
@@ -268,7 +269,7 @@ class _Flights:
 
 
 def tune(airframe, trials=40, train_seeds=(1, 2), check_seeds=(101, 102, 103), workers=1, sampler_seed=0,
-         progress=None, candidates=5):
+         progress=None, candidates=5, start_from_hand=True):
     """Search, then check on unseen seeds. Returns a dict: values, hand, table rows, trials, interrupted.
 
     progress(done, total, best_score) after each proposal. On KeyboardInterrupt the search stops
@@ -281,7 +282,10 @@ def tune(airframe, trials=40, train_seeds=(1, 2), check_seeds=(101, 102, 103), w
                                          multivariate=True)
     study = optuna.create_study(direction="minimize", sampler=sampler)
     hand = hand_tune(airframe)
-    study.enqueue_trial({name: min(hi, max(lo, hand[name])) for name, lo, hi in SPACE})
+    # The first proposal: the hand tune, or (start_from_hand False) the defaults, so a search can show
+    # what it finds from the airframe's physics alone.
+    first = hand if start_from_hand else hand_tune({"params": {}})
+    study.enqueue_trial({name: min(hi, max(lo, first[name])) for name, lo, hi in SPACE})
     flights = _Flights(workers)
     batch = max(1, workers // max(1, len(train_seeds)))
     done = 0
