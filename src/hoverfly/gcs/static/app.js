@@ -44,6 +44,10 @@ const ctx = {
   telemetryFresh() {
     return this.socket.open && performance.now() - this.socket.lastRxMs < TELEMETRY_STALE_MS;
   },
+  // Telemetry is arriving and the backend says it comes from the controller (not a dead link).
+  controllerLive() {
+    return this.telemetryFresh() && !!this.telemetry && this.telemetry.link_ok !== false;
+  },
 };
 window.hoverflyGcs = ctx; // for debugging from the console; nothing reads it
 
@@ -97,7 +101,7 @@ function updateTopBar() {
   chip.dataset.state = cls === "ok" ? "connected" : cls === "warn" ? "degraded" : "disconnected";
 
   const armedChip = $("armed-state");
-  if (!s && !ctx.telemetry) {
+  if ((!s && !ctx.telemetry) || !ctx.controllerLive()) {
     armedChip.textContent = "—";
     armedChip.className = "chip";
   } else if (ctx.armed()) {
@@ -109,16 +113,19 @@ function updateTopBar() {
   }
 
   const up = ctx.linkUp();
+  // Only the backend's link to the controller is announced here; the socket announces itself.
+  if (s && s.link && !s.link.connected && ctx.socket.open && !linkMessage) {
+    const why = s.link.error ? `: ${s.link.error}` : "";
+    linkMessage = lastLinkUp === true
+      ? `link to the controller lost${why}; reconnecting (controls that need it are disabled)`
+      : `no link to the controller${why}`;
+    showMessage(linkMessage);
+  } else if (up && linkMessage) {
+    clearMessage(linkMessage);
+    linkMessage = null;
+    if (lastLinkUp === false) showMessage("link to the controller up", "info");
+  }
   if (up !== lastLinkUp) {
-    // Only the backend's link is reported here; the socket says so itself (Socket "state").
-    if (lastLinkUp === true && ctx.socket.open && s) {
-      linkMessage = `link to the controller lost${s.link && s.link.error ? ": " + s.link.error : ""}; reconnecting (controls that need it are disabled)`;
-      showMessage(linkMessage);
-    } else if (up && linkMessage) {
-      clearMessage(linkMessage);
-      linkMessage = null;
-      showMessage("link to the controller back", "info");
-    }
     lastLinkUp = up;
     call(ctx.linkHandlers, up);
   }
@@ -316,15 +323,16 @@ setInterval(() => {
   hzCount = 0;
   hzStartMs = now;
   ctx.telemetryHz = hz;
-  $("telemetry-hz").textContent = `${hz.toFixed(0)} Hz`;
+  $("telemetry-hz").textContent = ctx.controllerLive() ? `${hz.toFixed(0)} Hz` : "no telemetry";
   updateTopBar();
 }, 1000);
 
 function frame() {
   if (ctx.screen === "status") {
-    drawHorizon($("horizon"), attitude[0] || 0, attitude[1] || 0, attitude[2] || 0, ctx.telemetryFresh());
-    $("attitude-text").textContent =
-      `roll ${fmt(attitude[0], 1)}°  pitch ${fmt(attitude[1], 1)}°  yaw ${fmt(attitude[2], 0)}°`;
+    drawHorizon($("horizon"), attitude[0] || 0, attitude[1] || 0, attitude[2] || 0, ctx.controllerLive());
+    $("attitude-text").textContent = ctx.controllerLive()
+      ? `roll ${fmt(attitude[0], 1)}°  pitch ${fmt(attitude[1], 1)}°  yaw ${fmt(attitude[2], 0)}°`
+      : "roll —  pitch —  yaw —";
   }
   requestAnimationFrame(frame);
 }

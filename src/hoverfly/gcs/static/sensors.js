@@ -81,10 +81,13 @@ export function initSensors(ctx) {
       card.id = `chart-${c.key}`;
       const h = document.createElement("h2");
       h.textContent = `${c.title}${c.unit ? " (" + c.unit + ")" : ""}`;
+      const note = document.createElement("span");
+      note.className = "dim";
+      h.append(note);
       const box = document.createElement("div");
       card.append(h, box);
       root.append(card);
-      charts.push({ c, box, plot: null, n: 0 });
+      charts.push({ c, box, note, plot: null, n: 0 });
     }
     for (const ch of charts) {
       ch.n = Math.max(1, series[ch.c.key].length);
@@ -146,6 +149,9 @@ export function initSensors(ctx) {
           ch.plot = makeChart(ch.c, ch.box, Math.max(300, ch.box.clientWidth - 4));
         }
         ch.plot.setData(dataFor(ch.c, k, ch.c.names ? ch.c.names.length : ch.n));
+        // an empty chart says why rather than looking broken
+        const none = !arrs.some((a) => a.length && a[a.length - 1] !== null);
+        ch.note.textContent = none ? "  not carried by this link" : "";
       }
       // uPlot draws in a microtask after setData: measure after it
       queueMicrotask(() => { drawMs = Math.max(drawMs, performance.now() - t0); });
