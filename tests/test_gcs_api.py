@@ -498,3 +498,28 @@ def test_sticks_on_an_msp_port_say_why_the_controller_refuses_them(sim, gcs_msp)
     # MSP_SET_RAW_RC is the companion computer's source (seed 004): refused until its procedure runs
     assert refusal and "autopilot switch is off" in refusal
     assert not sim.msp_status()[0]
+
+
+# ------------------------------------------------------------------------------------------ logs
+def test_the_logs_screen_lists_flight_logs_and_serves_their_report(tmp_path):
+    from hoverfly.sim.runner import SimRun
+
+    SimRun("5inch", "hover", seed=2, duration_s=3.0, log_path=str(tmp_path / "hover.ulg")).run()
+    (tmp_path / "notes.txt").write_text("not a log")
+    session = Session(None)
+    token = new_token()
+    client = TestClient(make_app(session, token, (ORIGIN,), tmp_path))
+    assert client.get("/api/logs").status_code == 401
+    client.headers["X-Hoverfly-Token"] = token
+    logs = client.get("/api/logs").json()
+    assert [d["name"] for d in logs] == ["hover.ulg"] and logs[0]["size_bytes"] > 1000
+    r = client.post("/api/logs/report", json={"name": "../hover.ulg"})
+    assert r.status_code == 400 and "no flight log" in r.json()["error"]
+    r = client.post("/api/logs/report", json={"name": "hover.ulg"})
+    assert r.status_code == 200, r.text
+    url = r.json()["url"]
+    page = client.get(url)
+    assert page.status_code == 200 and "Flight log hover.ulg" in page.text
+    assert client.get("/api/logs").json()[0]["report"] == url
+    assert client.get(url.replace("index.html", "..%2F..%2Fhover.ulg")).status_code == 404
+    assert client.get("/reports/guess/index.html").status_code == 404

@@ -44,7 +44,7 @@ def run_gcs(args):
     session = Session(args.port, args.timeout)
     session.start()
     origins = ("http://%s:%d" % (HOST, port), "http://localhost:%d" % port)
-    app = make_app(session, token, origins)
+    app = make_app(session, token, origins, args.logs)
     url = "http://%s:%d/?token=%s" % (HOST, port, token)
     link = session.link_state()
     if args.port is None:
@@ -71,6 +71,9 @@ def run_gcs(args):
     finally:
         session.close()
         sock.close()
+        import shutil
+
+        shutil.rmtree(app.state.logs.out_root, ignore_errors=True)
     print("hoverfly gcs: stopped", file=sys.stderr)
     return 0
 
@@ -83,4 +86,6 @@ def register(sub):
                    help="the web app's port on 127.0.0.1 (default: any free port)")
     p.add_argument("--no-browser", action="store_true", help="print the URL, do not open a browser")
     p.add_argument("--timeout", type=float, default=1.0, metavar="S", help="seconds to wait for the controller (1)")
+    p.add_argument("--logs", default=".", metavar="DIR",
+                   help="where the Logs screen finds flight logs (*.ulg) and makes their reports (default: here)")
     p.set_defaults(func=run_gcs)

@@ -22,6 +22,7 @@ from starlette.routing import Mount, Route, WebSocketRoute
 from starlette.staticfiles import StaticFiles
 from starlette.websockets import WebSocket, WebSocketDisconnect
 
+from hoverfly.errors import UserError
 from hoverfly.gcs.session import GcsError, Session
 
 STATIC_DIR = Path(__file__).parent / "static"
@@ -39,11 +40,69 @@ def _error(message, status):
     return JSONResponse({"error": message}, status_code=status)
 
 
-def make_app(session, token, allowed_origins=()):
+class LogReports:
+    """The Logs screen's data: the flight logs (*.ulg) in one directory, and `hoverfly log report` pages
+    made from them on request. A report is served under /reports/KEY/ with KEY a random name given
+    out by the token-checked API (the report's own page links its plots by relative names)."""
+
+    def __init__(self, logs_dir):
+        import tempfile
+
+        self.logs_dir = Path(logs_dir) if logs_dir else None
+        self.out_root = Path(tempfile.mkdtemp(prefix="hoverfly-gcs-reports-"))
+        self.reports = {}  # key -> directory
+        self.by_name = {}  # log name -> key
+
+    def list(self):
+        if self.logs_dir is None or not self.logs_dir.is_dir():
+            return []
+        out = []
+        for p in self.logs_dir.glob("*.ulg"):
+            try:
+                st = p.stat()
+            except OSError:
+                continue
+            out.append({"name": p.name, "size_bytes": st.st_size, "modified": int(st.st_mtime),
+                        "report": ("/reports/%s/index.html" % self.by_name[p.name]) if p.name in self.by_name
+                        else None})
+        out.sort(key=lambda d: -d["modified"])
+        return out
+
+    def report(self, name):
+        from hoverfly.logs.data import load
+        from hoverfly.logs.report import write_report
+
+        if not isinstance(name, str) or name not in {d["name"] for d in self.list()}:
+            raise GcsError("no flight log named %r in %s" % (name, self.logs_dir))
+        key = secrets.token_urlsafe(12)
+        out = self.out_root / key
+        try:
+            log = load(str(self.logs_dir / name))
+            r = write_report(log, str(out))
+        except UserError as exc:
+            raise GcsError("%s: %s" % (name, exc)) from None
+        except (OSError, ValueError) as exc:
+            raise GcsError("%s cannot be read: %s" % (name, exc)) from None
+        self.reports[key] = out
+        self.by_name[name] = key
+        return {"name": name, "url": "/reports/%s/index.html" % key, "warnings": list(log.warnings),
+                "steps": len(r["steps"])}
+
+    def file(self, key, filename):
+        d = self.reports.get(key)
+        if d is None or "/" in filename or "\\" in filename or filename.startswith("."):
+            return None
+        p = d / filename
+        return p if p.is_file() else None
+
+
+def make_app(session, token, allowed_origins=(), logs_dir=None):
     """The Starlette app over `session`. allowed_origins: the Origin values the WebSocket accepts
-    (the server's own http://127.0.0.1:N and http://localhost:N)."""
+    (the server's own http://127.0.0.1:N and http://localhost:N). logs_dir: where the Logs screen
+    finds flight logs (*.ulg); None for none."""
     origins = set(allowed_origins)
     state = {"jitter_at": 0.0, "sockets": 0}
+    logs = LogReports(logs_dir)
 
     def token_ok(conn):
         given = conn.headers.get(TOKEN_HEADER) or conn.query_params.get("token") or ""
@@ -120,6 +179,15 @@ def make_app(session, token, allowed_origins=()):
     def rc_arm(data):
         return session.set_arm(need_dict(data, "arm")[0])
 
+    def log_report(data):
+        return logs.report(need_dict(data, "name")[0])
+
+    async def report_file(request: Request):
+        p = logs.file(request.path_params["key"], request.path_params["filename"])
+        if p is None:
+            return PlainTextResponse("no such report", status_code=404)
+        return FileResponse(p)
+
     async def index(request: Request):
         if not token_ok(request):
             return PlainTextResponse("Open the URL that `hoverfly gcs` printed: it carries this start's token.",
@@ -191,6 +259,9 @@ def make_app(session, token, allowed_origins=()):
         Route("/api/maint/fields", api(maint_fields)),
         Route("/api/maint/read", api(maint_read, True), methods=["POST"]),
         Route("/api/rc/arm", api(rc_arm, True), methods=["POST"]),
+        Route("/api/logs", api(logs.list)),
+        Route("/api/logs/report", api(log_report, True), methods=["POST"]),
+        Route("/reports/{key}/{filename}", report_file),
         WebSocketRoute("/ws", ws_endpoint),
     ]
     if STATIC_DIR.is_dir():
@@ -198,6 +269,7 @@ def make_app(session, token, allowed_origins=()):
     app = Starlette(routes=routes)
     app.state.session = session
     app.state.token = token
+    app.state.logs = logs
     return app
 
 
