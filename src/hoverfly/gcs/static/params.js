@@ -5,6 +5,9 @@
 
 const $ = (id) => document.getElementById(id);
 
+const BACKUP_KEY = "hoverfly-diff-backups";
+const BACKUPS_KEPT = 10;
+
 // Parse and check one typed value against its row. Returns {value} or {error} in plain words.
 // The backend checks again (params.check, including rules a range cannot express, such as
 // rc_map being a permutation): this check is so a mistake is shown before anything is sent.
@@ -258,12 +261,58 @@ export function initParams(ctx) {
     }
   };
 
+  // Before each Save the controller's diff is kept in this browser (the last BACKUPS_KEPT), so a
+  // save that went wrong can be undone through the import preview: Betaflight users' most asked
+  // for safety net (betaflight-configurator #3242).
+  function backups() {
+    try {
+      const list = JSON.parse(localStorage.getItem(BACKUP_KEY) || "[]");
+      return Array.isArray(list) ? list : [];
+    } catch (e) {
+      return [];
+    }
+  }
+
+  function showBackups() {
+    const sel = $("param-backups");
+    const first = sel.options[0];
+    sel.replaceChildren(first, ...backups().map((b, i) => {
+      const o = document.createElement("option");
+      o.value = String(i);
+      o.textContent = `before save ${b.at}`;
+      return o;
+    }));
+  }
+
+  async function backup() {
+    try {
+      const text = await api("GET", "/api/diff", undefined, { text: true, quiet: true });
+      const list = backups();
+      list.unshift({ at: new Date().toLocaleString(), text });
+      localStorage.setItem(BACKUP_KEY, JSON.stringify(list.slice(0, BACKUPS_KEPT)));
+      showBackups();
+    } catch (e) {
+      // no backup is no reason to refuse the save the user asked for
+    }
+  }
+
+  $("param-backups").addEventListener("change", () => {
+    const b = backups()[Number($("param-backups").value)];
+    $("param-backups").value = "";
+    if (!b) return;
+    $("diff-text").value = b.text;
+    resetPreview();
+    showMessage(`backup from ${b.at} loaded into the import box: press Preview to see what it would change`, "info");
+  });
+  showBackups();
+
   $("param-save").onclick = async () => {
     const why = refuseWhy();
     if (why) {
       showMessage(why);
       return;
     }
+    await backup();
     if (!(await applyPending())) return;
     try {
       await api("POST", "/api/save", {});

@@ -98,8 +98,12 @@ export function initReceiver(ctx) {
       el.className = "aux";
       el.dataset.mode = key;
       const title = document.createElement("div");
-      title.innerHTML = `<b>${MODE_NAMES[key] || key.toUpperCase()}</b> <span class="dim"></span>`;
-      title.querySelector(".dim").textContent = p.help || "";
+      const b = document.createElement("b");
+      b.textContent = MODE_NAMES[key] || key.toUpperCase();
+      const help = document.createElement("span");
+      help.className = "dim";
+      help.textContent = p.help || "";
+      title.append(b, " ", help);
       const row = document.createElement("div");
       row.className = "row";
       row.append(field("channel", p));
