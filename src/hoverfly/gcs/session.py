@@ -157,6 +157,8 @@ class Session:
         self.motor_props = False
         self.motor_stops = 0
         self._ticks = 0
+        self.tick_s_sum = 0.0
+        self.tick_s_max = 0.0
         self._reason_at = 0.0
         self._last_try = 0.0
         self._stop = threading.Event()
@@ -635,6 +637,7 @@ class Session:
                 # still armed it stays: sticks coming back after a gap must not send a disarm in the air.
                 self.arm = False
             self._ticks += 1
+            t0 = time.perf_counter()
             try:
                 if self.protocol == "maint":
                     self._tick_maint(fresh)
@@ -642,6 +645,10 @@ class Session:
                     self._tick_msp(fresh)
             except LinkError as exc:
                 self._lost(exc)
+            took_s = time.perf_counter() - t0  # the link's round trips: bench/gcs_link.py reports them
+            self.tick_s_sum += took_s
+            if took_s > self.tick_s_max:
+                self.tick_s_max = took_s
 
     def _override_state(self, fresh):
         if fresh:
@@ -676,22 +683,22 @@ class Session:
         self.state.update({"armed": armed, "bit_flags": v["builtin_test_status"], "mode": t["mode"]})
 
     def _tick_msp(self, fresh):
-        cmds = [msp.MSP_ATTITUDE, msp.MSP_RAW_IMU, msp.MSP_MOTOR, msp.MSP_RC]
-        slow = self._ticks % STATUS_EVERY == 1
-        if slow:
-            cmds += [msp.MSP_STATUS_EX, msp.MSP_ANALOG]
+        cmds = [(msp.MSP_ATTITUDE, b""), (msp.MSP_RAW_IMU, b""), (msp.MSP_MOTOR, b""), (msp.MSP_RC, b"")]
+        if self._ticks % STATUS_EVERY == 1:
+            cmds += [(msp.MSP_STATUS_EX, b""), (msp.MSP_ANALOG, b"")]
         self._override_state(fresh)
-        replies = self._msp_batch(cmds)
         if fresh:
             roll, pitch, yaw, thr, aux = self._pulses()
             # AETR1234, as Betaflight's MSP receiver takes it; AUX1 is the arm switch
             aux = [2000 if self.arm else 1000] + (aux[1:] + [1500] * 3)[:3]
-            try:
-                self.client.request(msp.MSP_SET_RAW_RC, msp.pack_set_raw_rc([roll, pitch, thr, yaw] + aux[:4]))
-                self.override_refusal = None
-            except Refused as exc:
-                self.override_refusal = self._rc_refusal(exc)
+            cmds.append((msp.MSP_SET_RAW_RC, msp.pack_set_raw_rc([roll, pitch, thr, yaw] + aux[:4])))
+        replies, refused = self._msp_batch(cmds)
+        if fresh:
             self.rc_sent += 1
+            if msp.MSP_SET_RAW_RC in refused:
+                self.override_refusal = self._rc_refusal(Refused("the controller refused MSP_SET_RAW_RC"))
+            elif msp.MSP_SET_RAW_RC in replies:
+                self.override_refusal = None
         t = dict(self.telemetry)
         t["link_ok"] = True
         t["override"] = self.override
@@ -749,30 +756,35 @@ class Session:
         return "MSP RC refused: %s (on this port MSP RC follows seed 004's autopilot rules)" % st["last_reason"]
 
     def _msp_batch(self, cmds):
-        """Send every request at once and collect the replies: one round trip for the lot."""
+        """Send every (cmd, payload) request at once and collect the replies: one round trip for the lot.
+        ({cmd: reply payload}, {cmds answered with an error frame})."""
         from hoverfly.gcs import link
 
         port = self.port
         link._drain(port)
         parser = self.client.parser
         parser.reset()
-        link._write(port, b"".join(msp.encode_request(c) for c in cmds))
-        want = set(cmds)
+        link._write(port, b"".join(msp.encode_request(c, p) for c, p in cmds))
+        want = {c for c, _ in cmds}
         out = {}
+        refused = set()
         deadline = time.monotonic() + self.timeout_s
         while want and time.monotonic() < deadline:
             data = link._read_some(port)
             if data:
                 parser.feed(data)
             while parser.pop():
-                if parser.cmd in want and parser.direction == msp.DIR_REPLY:
+                if parser.cmd not in want:
+                    continue
+                if parser.direction == msp.DIR_REPLY:
                     out[parser.cmd] = bytes(parser.message())
                     want.discard(parser.cmd)
-                elif parser.cmd in want and parser.direction == msp.DIR_ERROR:
+                elif parser.direction == msp.DIR_ERROR:
+                    refused.add(parser.cmd)
                     want.discard(parser.cmd)
-        if want and not out:
+        if want and not out and not refused:
             raise LinkError("no MSP reply from %s" % self.url)
-        return out
+        return out, refused
 
     # ---------------------------------------------------------------- jitter
     def refresh_loop_stats(self):
