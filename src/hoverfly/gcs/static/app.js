@@ -334,6 +334,9 @@ function frame() {
       ? `roll ${fmt(attitude[0], 1)}°  pitch ${fmt(attitude[1], 1)}°  yaw ${fmt(attitude[2], 0)}°`
       : "roll —  pitch —  yaw —";
   }
+  if (ctx.screen === "fly") {
+    drawHorizon($("fly-horizon"), attitude[0] || 0, attitude[1] || 0, attitude[2] || 0, ctx.controllerLive());
+  }
   requestAnimationFrame(frame);
 }
 

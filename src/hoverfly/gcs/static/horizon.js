@@ -1,5 +1,6 @@
 // A 2D artificial horizon on a canvas, as an attitude indicator reads: the aircraft symbol is
-// fixed, the horizon rolls against it (roll right: the horizon's left side rises) and moves down
+// fixed, the horizon rolls against it (roll right: the horizon turns anticlockwise, its right side
+// rising, as the world seen from a cockpit banking right) and moves down
 // as the nose pitches up. Angles in degrees, roll and pitch positive right and up (FRD).
 
 const SKY = "#2f6fb0";
