@@ -195,6 +195,35 @@ def test_an_imported_diff_is_previewed_before_anything_is_sent(browser, sim):
         g.stop()
 
 
+def test_the_maintenance_screen_reads_header_fields_and_runs_seed_commands(browser, sim):
+    g = GcsProcess(sim.url("maint"))
+    try:
+        page = _page(browser, g.url)
+        expect(page.locator("#status-protocol")).to_contain_text("maint", ignore_case=True)
+        page.click("#nav-maint")
+        page.check("#maint-fields input[data-field=sw_ver]")
+        page.check("#maint-fields input[data-field=PID_params]")
+        page.click("#maint-read")
+        expect(page.locator("#maint-reply")).to_contain_text("sw_ver", timeout=5000)
+        expect(page.locator("#maint-reply")).to_contain_text("PID_params")
+        # a pulse out of the seed's range: refused with the reason, nothing sent
+        form = page.locator("form.maint-cmd[data-command=set_motor1]")
+        form.locator("[data-arg=pulse_us]").fill("2500")
+        form.locator("button[type=submit]").click()
+        expect(page.locator("#messages .msg").last).to_contain_text("set_motor1", timeout=5000)
+        # the roll PID through the seed's command: P (KP) 52 reads back as p_roll
+        pid = page.locator("form.maint-cmd[data-command=set_roll_pid]")
+        for arg, value in (("kp", "52"), ("ki", "80"), ("kt", "0"), ("sat", "400"), ("ad", "0"), ("bd", "40")):
+            pid.locator("[data-arg=%s]" % arg).fill(value)
+        pid.locator("button[type=submit]").click()
+        expect(page.locator("#maint-reply")).to_contain_text("set_roll_pid: ok", timeout=5000)
+        assert g.param("p_roll") == 52
+        _shot(page, "maint")
+        page.context.close()
+    finally:
+        g.stop()
+
+
 def _motors(g):
     """The controller's motor outputs (MSP_MOTOR through the app's WebSocket, as the page sees them)."""
     from websockets.sync.client import connect
