@@ -11,6 +11,7 @@ every screen go to out/gcs/ (look at them).
 
 import json
 import shutil
+import socket
 import subprocess
 import sys
 import threading
@@ -46,9 +47,10 @@ class GcsProcess:
 
     def __init__(self, url):
         self.http_port = _free_port()
+        port = ["--port", url] if url else []
         self.proc = subprocess.Popen(
-            [sys.executable, "-m", "hoverfly.cli", "gcs", "--port", url, "--http-port", str(self.http_port),
-             "--no-browser"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=REPO)
+            [sys.executable, "-m", "hoverfly.cli", "gcs"] + port + ["--http-port", str(self.http_port), "--no-browser"],
+            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=REPO)
         self.url = None
         deadline = time.monotonic() + 20
         while self.url is None and time.monotonic() < deadline:
@@ -135,6 +137,53 @@ def test_every_screen_shows_and_is_kept_as_a_screenshot(browser, sim):
         page.context.close()
     finally:
         g.stop()
+
+
+def test_a_port_that_is_no_flight_controller_is_named_in_the_page(browser, sim):
+    printer = socket.socket()  # accepts, and answers anything with text: not MSP, not the maintenance protocol
+    printer.bind(("127.0.0.1", 0))
+    printer.listen(2)
+    stop = threading.Event()
+
+    def serve():
+        printer.settimeout(0.1)
+        while not stop.is_set():
+            try:
+                conn, _ = printer.accept()
+            except OSError:
+                continue
+            conn.settimeout(0.1)
+            while not stop.is_set():
+                try:
+                    if not conn.recv(256):
+                        break
+                    conn.sendall(b"READY\r\n")
+                except TimeoutError:
+                    continue
+                except OSError:
+                    break
+            conn.close()
+
+    threading.Thread(target=serve, daemon=True).start()
+    g = GcsProcess(None)
+    try:
+        ctx = browser.new_context(viewport={"width": 1366, "height": 800})
+        page = ctx.new_page()
+        page.goto(g.url)
+        expect(page.locator("#link-state")).to_have_attribute("data-state", "disconnected", timeout=10000)
+        page.fill("#connect-url", "socket://127.0.0.1:%d" % printer.getsockname()[1])
+        page.click("#connect-btn")
+        expect(page.locator("#link-state")).to_contain_text("neither MSP nor the seed-001", timeout=10000)
+        expect(page.locator("#messages")).to_contain_text("neither MSP nor the seed-001")
+        _shot(page, "not-a-controller")
+        page.fill("#connect-url", sim.url("msp"))  # and the right port afterwards: nothing stuck
+        page.click("#connect-btn")
+        expect(page.locator("#link-state")).to_have_attribute("data-state", "connected", timeout=15000)
+        ctx.close()
+    finally:
+        stop.set()
+        g.stop()
+        printer.close()
 
 
 def test_a_parameter_changed_and_saved_is_kept_across_a_sim_restart(browser, sim):
