@@ -410,6 +410,9 @@ def test_motor_test_and_parameter_writes_are_refused_while_armed(sim, gcs_maint)
         r = gcs_maint.post("/api/params", {"p_roll": 50})
         assert r.status_code == 409 and "armed" in r.json()["error"]
         assert gcs_maint.post("/api/save").status_code == 409
+        r = gcs_maint.post("/api/disconnect")  # the link it flies on is not dropped by a click in flight
+        assert r.status_code == 409 and "disarm first" in r.json()["error"]
+        assert gcs_maint.get("/api/status").json()["link"]["connected"]
     finally:
         pad.stop()
 

@@ -185,7 +185,14 @@ class Session:
     def link_state(self):
         return {"url": self.url, "protocol": self.protocol, "connected": self.port is not None, "error": self.error}
 
+    def _refuse_in_flight(self, what):
+        # SAFETY: switching or dropping the link ends the sticks this page flies with: not by a click in flight.
+        if self.state["armed"] and self.override == "sending":
+            raise GcsError("%s refused: the craft is armed and flown from this page; land and disarm first" % what,
+                           409)
+
     def connect(self, url):
+        self._refuse_in_flight("connecting another port")
         with self.lock:
             self._stop_motors_quietly()
             self._close_port()
@@ -202,6 +209,7 @@ class Session:
             return self.link_state()
 
     def disconnect(self):
+        self._refuse_in_flight("disconnecting")
         with self.lock:
             self._stop_motors_quietly()
             self.want_connected = False
