@@ -89,6 +89,17 @@ def demo_pass(co, st, io, n):
         st[48 + k] += 1
         fout[k] = st[16 + k] * _INV16  # past 2**24: the encode rounds
         fout[8 + k] = st[32 + k] * _INV16
+        m = fin[k]  # a float local: compared on its bits
+        if m > 1.5:
+            st[60] += 1
+        elif not (m >= -0.25):
+            st[61] += 1
+        elif m == 0.0:
+            st[62] += 1
+        else:
+            st[63] = int(m * 4096.0)
+        if 2.0 <= m:
+            st[59] += 1
     g = [0, 0, 0]
     for i, v in enumerate((st[0], st[1], st[2])):
         g[i] = v * 2
@@ -120,6 +131,20 @@ class Demo:
         self.lo = r + 1
 '''
 
+# The function form (no address table: the encode's exponent by halving steps), on the encode's whole range.
+DEMO_FN = '''
+_INV16 = 1.0 / 65536.0
+
+
+# fastpass: encode_all a:i f:f
+def encode_all(a, f, n):
+    s = 0
+    for k in range(n):
+        f[k] = a[k] * _INV16
+        s += a[k] & 1
+    return s
+'''
+
 DRIVER = '''
 import sys
 from array import array
@@ -143,7 +168,7 @@ bind(b._tab, 2, b.fin)
 bind(b._tab, 3, b.fout)
 bind(b._tab, 4, demo_fast.LOG2)
 odd = (0.0, -0.0, 1e-9, 127.99999, 128.0, -128.0, 1e30, -1e30, float("inf"), float("-inf"), float("nan"),
-       3.9, -3.9, 0.5, 2.0 ** -16, 2.0 ** -17, 255.5, 1000.0 / 256.0, 4.0)
+       3.9, -3.9, 0.5, 2.0 ** -16, 2.0 ** -17, 255.5, 1000.0 / 256.0, 4.0, 1.5, -0.25, 2.0, 1.0)
 bad = 0
 for n in range(4000):
     for k in range(12):
@@ -174,6 +199,21 @@ for n in range(4000):
             bad += 1
             if bad < 5:
                 print("fout", n, k, a.fout[k], b.fout[k])
+import demo_fn
+import demo_fn_fast
+ia = array("i", [0] * 64)
+fa = array("f", [0.0] * 64)
+fb = array("f", [0.0] * 64)
+for n in range(300):
+    for k in range(64):
+        r = rnd()
+        v = (r & 0x7FFFFFFF) >> (r % 31)
+        ia[k] = -v if k & 1 else v
+    if demo_fn.encode_all(ia, fa, 64) != demo_fn_fast.encode_all(ia, fb, 64):
+        bad += 1
+    for k in range(64):
+        if fa[k] != fb[k]:
+            bad += 1
 print("mismatches", bad)
 '''
 
@@ -183,6 +223,8 @@ def demo_dir(tmp_path_factory):
     d = tmp_path_factory.mktemp("fastgen-demo")
     (d / "demo.py").write_text(DEMO)
     (d / "demo_fast.py").write_text(fastgen.generate_source(DEMO, "demo.py"))
+    (d / "demo_fn.py").write_text(DEMO_FN)
+    (d / "demo_fn_fast.py").write_text(fastgen.generate_source(DEMO_FN, "demo_fn.py"))
     (d / "driver.py").write_text(DRIVER)
     return d
 
@@ -211,7 +253,9 @@ def _refused(body, why):
 
 
 def test_what_the_generator_cannot_map_is_refused_with_the_reason():
-    _refused("    lo = fin[0]\n", "read only through _dec")
+    _refused("    lo = fin[0] + 1\n", "read only through _dec")
+    _refused("    m = fin[0]\n    if m > 0.1:\n        lo = 1\n", "not a float32")
+    _refused("    m = fin[0]\n    lo = m + 1\n", "float local")
     _refused("    fout[0] = lo * 0.3\n", "power of two")
     _refused("    lo = lo * 0.5\n", "float constant")
     _refused("    for k in range(3):\n        continue\n", "continue")

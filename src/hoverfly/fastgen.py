@@ -18,6 +18,7 @@ import ast
 import hashlib
 import importlib
 import pathlib
+import struct
 import sys
 
 PACKAGE = pathlib.Path(__file__).resolve().parent
@@ -27,6 +28,7 @@ STAGES = {
     "rate": "hoverfly.core.fixedrate",
     "att": "hoverfly.core.fixedatt",
     "sched": "hoverfly.core.scheduler",
+    "output": "hoverfly.core.output",
 }
 DIRECTIVE = "# fastpass:"
 HASH_LINE = "# fastgen source sha256: "
@@ -135,6 +137,7 @@ class Generator:
         self.lines = []
         self.depth = 1
         self.count = 0
+        self.big = {}  # the large constants' locals: name -> how the prologue makes it
 
     # ---- the directive: "# fastpass: Class.method name:typecode ..." on the line above the kernel's def
     def _directive(self):
@@ -200,9 +203,15 @@ class Generator:
         if -SMALL_INT_LIM < v < SMALL_INT_LIM:
             return str(v)
         a = -v if v < 0 else v
+        if a >= (1 << 31):
+            _fail(node, "a constant past 32 bits (%d)" % v)
         if a & (a - 1):
-            _fail(node, "a constant of 2**30 or more that is not a power of two (%d)" % v)
-        text = "(_one << %d)" % (a.bit_length() - 1)
+            # a local set once from _one (prologue): MicroPython's compiler folds constant operands into a heap
+            # integer
+            text = "_c%x" % a
+            self.big[text] = "((_one * %d) << 16) + %d" % (a >> 16, a & 0xFFFF)
+        else:
+            text = "(_one << %d)" % (a.bit_length() - 1)
         return "(0 - %s)" % text if v < 0 else text
 
     # ---- expressions: C-like text; what needs statements (products, decodes, helpers) goes before
@@ -216,6 +225,8 @@ class Generator:
             kind = scope.names.get(node.id)
             if kind is None:
                 _fail(node, "unknown name %r (a local must be assigned before use)" % node.id)
+            if kind[0] == "float":
+                _fail(node, "a float local (%r) is only compared with a constant or read as int(v * 2**q)" % node.id)
             if kind[0] != "local":
                 _fail(node, "%r is an array: index it" % node.id)
             return kind[1]
@@ -231,6 +242,9 @@ class Generator:
             if isinstance(node.op, ast.Not):
                 return "(not %s)" % self.expr(node.operand, scope)
             _fail(node, "unary %s" % type(node.op).__name__)
+        if isinstance(node, ast.Compare) and len(node.ops) == 1 and (
+                self.is_float(node.left, scope) or self.is_float(node.comparators[0], scope)):
+            return self.float_compare(node, scope)
         if isinstance(node, ast.Compare):
             if len(node.ops) != 1 or type(node.ops[0]) not in _CMPOPS:
                 _fail(node, "a comparison is one of < <= > >= == != between two values")
@@ -263,6 +277,10 @@ class Generator:
                 return self.dec(node, scope)
             if fn == "_mulw":
                 return self.mulw(node, scope)
+            if fn == "int" and len(node.args) == 1 and isinstance(node.args[0], ast.BinOp) \
+                    and isinstance(node.args[0].op, ast.Mult) and self.is_float(node.args[0].left, scope):
+                q = _log2(self.const_value(node.args[0].right, scope), node)
+                return self.dec_bits(scope.names[node.args[0].left.id][1], q, (1 << 31) - 1, node)
             if fn in self.functions:
                 result = self.inline(self.functions[fn], node, scope)
                 if isinstance(result, list):
@@ -321,11 +339,14 @@ class Generator:
             else:
                 self.emit("%s = (%s + (%s >> 16) + %d) >> %d" % (r, hi, lo, 1 << (s - 17), s - 16))
             return r
+        # a run-time shift goes with a configured coefficient, often 0 (a term that is off): skipped then
         s = self.atom(self.expr(node.args[2], scope), "s")
-        self.emit("if %s <= 16:" % s)
-        self.emit("    %s = (%s << (16 - %s)) + ((%s + ((_one << %s) >> 1)) >> %s)" % (r, hi, s, lo, s, s))
-        self.emit("else:")
-        self.emit("    %s = (%s + (%s >> 16) + (_one << (%s - 17))) >> (%s - 16)" % (r, hi, lo, s, s))
+        self.emit("%s = 0" % r)
+        self.emit("if %s != 0:" % c)
+        self.emit("    if %s <= 16:" % s)
+        self.emit("        %s = (%s << (16 - %s)) + ((%s + ((_one << %s) >> 1)) >> %s)" % (r, hi, s, lo, s, s))
+        self.emit("    else:")
+        self.emit("        %s = (%s + (%s >> 16) + (_one << (%s - 17))) >> (%s - 16)" % (r, hi, lo, s, s))
         return r
 
     def is_list(self, node, scope):
@@ -363,6 +384,34 @@ class Generator:
         self.emit("%s = ((_ah * _bh) << 2) + ((_ah * _bl + _al * _bh + ((_al * _bl + 0x8000000) >> 15)) >> 13)" % r)
         return r
 
+    def is_float(self, node, scope):
+        return isinstance(node, ast.Name) and scope.names.get(node.id, ("",))[0] == "float"
+
+    def float_compare(self, node, scope):
+        """A float local (an 'f' array's element, as its bits) against a constant float32: on the bits' order
+        key (the magnitude, negated when the sign is set: -0.0 is 0.0), false for NaN but for !=."""
+        op = type(node.ops[0])
+        left, right = node.left, node.comparators[0]
+        if not self.is_float(left, scope):  # c < m is m > c
+            left, right = right, left
+            op = {ast.Lt: ast.Gt, ast.LtE: ast.GtE, ast.Gt: ast.Lt, ast.GtE: ast.LtE}.get(op, op)
+        if op not in _CMPOPS:
+            _fail(node, "a float comparison is one of < <= > >= == !=")
+        c = self.const_value(right, scope)
+        if c is None:
+            _fail(node, "a float local is compared with a constant only")
+        bits = struct.unpack("<I", struct.pack("<f", c))[0]
+        if struct.unpack("<f", struct.pack("<I", bits))[0] != c or c != c:
+            _fail(node, "%r is not a float32: the comparison would differ from the Python's" % c)
+        key = bits & 0x7FFFFFFF
+        if bits >> 31:
+            key = -key
+        mag, k = scope.names[left.id][2:4]
+        inf = self.literal(0x7F800000, node)
+        if op is ast.NotEq:
+            return "((%s > %s) or (%s != %s))" % (mag, inf, k, self.literal(key, node))
+        return "((%s <= %s) and (%s %s %s))" % (mag, inf, k, _CMPOPS[op], self.literal(key, node))
+
     def dec(self, node, scope):
         """_dec(f[i], 2**q, lim): the float32 f[i] times 2**q truncated toward 0, clamped to +-lim, NaN as 0,
         read from its bits."""
@@ -376,11 +425,15 @@ class Generator:
         q = _log2(scale, node)
         if lim is None or not 0 < lim < (1 << 31):
             _fail(node, "_dec's lim is a constant in 1..2**31-1")
-        c = 150 - q  # the exponent field at which the 24-bit mantissa is the value itself
         idx = self.expr(node.args[0].slice, scope)
+        return self.dec_bits("%s[%s]" % (name, idx), q, int(lim), node)
+
+    def dec_bits(self, bits, q, lim, node):
+        """The float32 `bits` times 2**q, truncated toward 0, clamped to +-lim, NaN as 0."""
+        c = 150 - q  # the exponent field at which the 24-bit mantissa is the value itself
         v = self.temp("d")
-        lim_text = self.literal(int(lim), node)
-        self.emit("_b = %s[%s]" % (name, idx))
+        lim_text = self.literal(lim, node)
+        self.emit("_b = %s" % bits)
         self.emit("_e = (_b >> 23) & 0xFF")
         self.emit("if _e < %d:" % c)
         self.emit("    %s = 0" % v)
@@ -420,14 +473,22 @@ class Generator:
         self.emit("    if %s < 0:" % v)
         self.emit("        _a = 0 - %s" % v)
         self.emit("        _sg = _one << 31")
-        self.emit("    if _a >= 0x1000000:")
-        self.emit("        _pw = 24 + _lg[_a >> 24]")
-        self.emit("    elif _a >= 0x10000:")
-        self.emit("        _pw = 16 + _lg[_a >> 16]")
-        self.emit("    elif _a >= 0x100:")
-        self.emit("        _pw = 8 + _lg[_a >> 8]")
-        self.emit("    else:")
-        self.emit("        _pw = _lg[_a]")
+        if self.table_arrays():  # floor(log2(a)) from LOG2, a byte at a time
+            self.emit("    if _a >= 0x1000000:")
+            self.emit("        _pw = 24 + _lg[_a >> 24]")
+            self.emit("    elif _a >= 0x10000:")
+            self.emit("        _pw = 16 + _lg[_a >> 16]")
+            self.emit("    elif _a >= 0x100:")
+            self.emit("        _pw = 8 + _lg[_a >> 8]")
+            self.emit("    else:")
+            self.emit("        _pw = _lg[_a]")
+        else:  # no address table to reach LOG2 by: halving steps
+            self.emit("    _pw = 0")
+            self.emit("    _h = _a")
+            for k in (16, 8, 4, 2, 1):
+                self.emit("    if _h >= %d:" % (1 << k))
+                self.emit("        _h = _h >> %d" % k)
+                self.emit("        _pw += %d" % k)
         self.emit("    if _pw > 23:")
         self.emit("        _sh = _pw - 23")
         self.emit("        _mm = _a >> _sh")
@@ -572,6 +633,23 @@ class Generator:
             t = s.targets[0]
             if isinstance(t, ast.Tuple):
                 self.unpack(s, t, scope, rename)
+                return
+            if isinstance(t, ast.Name) and isinstance(s.value, ast.Subscript) and isinstance(s.value.value, ast.Name) \
+                    and scope.names.get(s.value.value.id, ("", "", ""))[0::2] == ("array", "f"):
+                # a float local: the element's bits, for comparisons with constants and int(v * 2**q)
+                # (with its magnitude and its order key, worked out once for all its comparisons)
+                kind = scope.names.get(t.id)
+                if kind and kind[0] == "float":
+                    out, mag, key = kind[1:4]
+                else:
+                    out, mag, key = [self.fresh((rename or "") + "_f%s_" % x + t.id, scope) for x in ("", "m", "k")]
+                name = self.array(s.value.value, scope)[0]
+                self.emit("%s = %s[%s]" % (out, name, self.expr(s.value.slice, scope)))
+                self.emit("%s = %s & %s" % (mag, out, self.literal(0x7FFFFFFF, s)))
+                self.emit("%s = %s" % (key, mag))
+                self.emit("if (%s >> 31) & 1:" % out)
+                self.emit("    %s = 0 - %s" % (key, mag))
+                scope.names[t.id] = ("float", out, mag, key)
                 return
             if isinstance(t, ast.Name) and isinstance(s.value, ast.List):
                 texts = [self.expr(e, scope) for e in s.value.elts]
@@ -836,8 +914,10 @@ class Generator:
         sign extension), `_lg` (the encode's LOG2: from the address table's slot, or the module's)."""
         body = "\n".join(self.lines[mark:])
         pre = []
-        if "_one" in body or "_sx" in body:
+        if "_one" in body or "_sx" in body or self.big:
             pre.append("_one = 1")
+        for name in sorted(self.big):
+            pre.append("%s = %s" % (name, self.big[name]))
         if "_sx" in body:
             pre.append("_sx = 0  # a ptr32 load is zero-extended on a 64-bit port: shifted up and back to sign-extend")
             pre.append("if (_one << 31) > 0:")

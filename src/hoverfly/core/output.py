@@ -31,7 +31,7 @@ the float stage's (a DShot step is 5e-4); its viper twin (accel/output.py) makes
 
 from array import array
 
-from hoverfly.compat import accel_module, const, ticks_diff
+from hoverfly.compat import IS_MICROPYTHON, const, ticks_diff
 from hoverfly.core.mixer import MAX_MOTORS
 from hoverfly.core.params import row
 from hoverfly.protocols import analog
@@ -60,15 +60,21 @@ _INV16 = 1.0 / 65536.0
 # (no viper) the Python twin, which takes any sequence.
 _encode_seen = encode_planned_f32 if encode_planned_f32 is not None else encode_planned
 
-_viper = accel_module("output")
+_viper = None
+if IS_MICROPYTHON:
+    try:  # generated from motors_fixed below by hoverfly.fastgen; absent, or a port without viper: the Python runs
+        from hoverfly.accel import output as _viper
+    except (ImportError, SyntaxError, NameError, ValueError, TypeError):  # TypeError: ViperTypeError
+        pass
 HAS_ACCEL = _viper is not None
 _CLAMPED_MAX = const(0x3FFFFFFF)  # update_fixed's count saturates here: a 32-bit word in the viper twin
 
 
+# fastpass: OutputStage.update_fixed norm:f@ out:f@ plan:i@
 def motors_fixed(norm, out, plan):
     """out[i] = idle_i + span_i * clamp(norm[i], 0, 1) for i < n in fixed point (plan: array('i') of n,
     then per motor its floor Q16 and span Q14; the demand truncated to Q16); returns how many demands
-    were clamped (outside 0..1 or NaN). The Python twin of accel/output.py."""
+    were clamped (outside 0..1 or NaN). accel/output.py is generated from it (docs/fastpass.md)."""
     n = plan[0]
     clamped = 0
     for i in range(n):
@@ -215,19 +221,25 @@ class OutputStage:
                 self.clamped += 1
             motor_out[i] = floor[i] + span[i] * m
 
-    def update_fixed_python(self, motor_norm, armed, motor_out):
+    def update_fixed(self, motor_norm, armed, motor_out):
         """`update` in fixed point (with the fixed rate loop): the same clamps and counts (saturating
         at 2**30), commands within 2**-14 of update's. On MicroPython the viper twin
-        (accel/output.py `update_fixed`) stands in for this method and makes no float."""
+        (accel/output.py `update_fixed`, generated from motors_fixed) stands in for this method and makes
+        no float; `update_fixed_python` keeps it."""
         # Few locals (see OutputEncoder.write): the pass's every call stays off the heap.
         if not armed:
             self._stop(motor_out)
             return
         c = motors_fixed(motor_norm, motor_out, self._fixed_plan)
-        if c and self.clamped < _CLAMPED_MAX:
-            self.clamped += c
+        if c:
+            self._count_clamped(c)
 
-    update_fixed = update_fixed_python
+    update_fixed_python = update_fixed
+
+    def _count_clamped(self, c):
+        """update_fixed's clamps, counted (saturating at 2**30: a 32-bit word in the viper twin)."""
+        if self.clamped < _CLAMPED_MAX:
+            self.clamped += c
 
     def _stop(self, motor_out):
         for i in range(self.motor_count):
