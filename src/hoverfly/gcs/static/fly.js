@@ -91,6 +91,8 @@ export function initFly(ctx) {
     lastSentMs: 0,
     maxGapMs: 0,           // longest time between two sends in the current second
     gapMs: 0,              // ... in the last whole second (the backend gives up after 250 ms)
+    armButtonWas: false,
+    armButtonSeen: false,  // the ARM button's state has been seen since the interlock passed
   };
   const keys = new Set();
   let keyThrottle = 0;
@@ -99,6 +101,7 @@ export function initFly(ctx) {
   let mapping = { ...DEFAULT_MAP };
   let invert = { ...DEFAULT_INVERT };
   let cal = {};            // axis index -> {centre, min, max}
+  let armButton = -1;      // pad button that toggles ARM, -1 = none
   let calWork = null;
 
   // ---- mapping UI ------------------------------------------------------------------------
@@ -110,6 +113,7 @@ export function initFly(ctx) {
         mapping = { ...DEFAULT_MAP, ...saved.mapping };
         invert = { ...DEFAULT_INVERT, ...saved.invert };
         cal = saved.cal || {};
+        armButton = Number.isInteger(saved.armButton) ? saved.armButton : -1;
         if (saved.expo !== undefined) $("fly-expo").value = saved.expo;
       }
     } catch (e) {
@@ -118,7 +122,7 @@ export function initFly(ctx) {
   }
 
   function saveMapping() {
-    localStorage.setItem(STORE_KEY, JSON.stringify({ mapping, invert, cal, expo: expo() }));
+    localStorage.setItem(STORE_KEY, JSON.stringify({ mapping, invert, cal, expo: expo(), armButton }));
   }
 
   function fillAxisSelects(n) {
@@ -135,7 +139,16 @@ export function initFly(ctx) {
     showMapping();
   }
 
+  function fillButtonSelect(n) {
+    const sel = $("map-arm");
+    if (sel.options.length === n + 1) return;
+    sel.replaceChildren(new Option("none (on-screen only)", "-1"),
+      ...Array.from({ length: n }, (_, i) => new Option(`button ${i}`, String(i))));
+    sel.value = String(armButton);
+  }
+
   function showMapping() {
+    $("map-arm").value = String(armButton);
     for (const f of FUNCTIONS) {
       $(`map-${f}`).value = String(mapping[f]);
       $(`inv-${f}`).checked = !!invert[f];
@@ -154,11 +167,17 @@ export function initFly(ctx) {
       resetInterlock("mapping changed");
     });
   }
+  $("map-arm").addEventListener("change", () => {
+    armButton = Number($("map-arm").value);
+    st.armButtonSeen = false; // a button held while mapping it does not count as a press
+    saveMapping();
+  });
   $("fly-expo").addEventListener("change", saveMapping);
   $("fly-map-reset").onclick = () => {
     mapping = { ...DEFAULT_MAP };
     invert = { ...DEFAULT_INVERT };
     cal = {};
+    armButton = -1;
     saveMapping();
     showMapping();
     resetInterlock("mapping changed");
@@ -221,6 +240,8 @@ export function initFly(ctx) {
     st.lost = null;
     lose(null);
     fillAxisSelects(Math.max(4, p.axes.length));
+    fillButtonSelect(p.buttons ? p.buttons.length : 0);
+    st.armButtonSeen = false;
   }
 
   window.addEventListener("keydown", (ev) => {
@@ -295,6 +316,7 @@ export function initFly(ctx) {
             });
           }
           st.lastAxes = [...p.axes];
+          padButton(p);
           sticks = sticksFromAxes(p.axes, mapping, invert, cal, expo());
         }
       }
@@ -363,7 +385,6 @@ export function initFly(ctx) {
       setTimeout(loop, Math.max(0, nextTickMs - now));
     }
   }
-  loop();
   setInterval(() => {
     st.sendHz = st.sent;
     st.sent = 0;
@@ -373,12 +394,12 @@ export function initFly(ctx) {
 
   // ---- arming -----------------------------------------------------------------------------
 
-  $("fly-arm").onclick = async () => {
-    if (st.armRequested) {
-      st.armRequested = false;
-      try { await api("POST", "/api/rc/arm", { arm: false }); } catch (e) { /* shown by api() */ }
-      return;
-    }
+  async function disarm() {
+    st.armRequested = false;
+    try { await api("POST", "/api/rc/arm", { arm: false }); } catch (e) { /* shown by api() */ }
+  }
+
+  function tryArm() {
     // SAFETY: an explicit press, with the throttle at zero, on a ready input and a live link.
     if (!st.ready || !st.sending) {
       showMessage("not armed: the input is not ready (centre the sticks, throttle to zero) or the link is down");
@@ -392,7 +413,37 @@ export function initFly(ctx) {
     // the same message (POST /api/rc/arm could arrive after a later throttle change and be judged
     // on that). A refusal comes back on the socket and drops the request (below).
     st.armRequested = true;
+  }
+
+  $("fly-arm").onclick = () => {
+    // focus leaves the button, so the Space that disarms cannot also press it (and re-arm)
+    $("fly-arm").blur();
+    return st.armRequested ? disarm() : tryArm();
   };
+
+  // A pad button mapped to ARM toggles like the on-screen button, on its press edge only: a button
+  // already held when the pad appears (or when the interlock passes) does nothing until released.
+  function padButton(p) {
+    const k = armButton;
+    const pressed = k >= 0 && k < p.buttons.length && !!(p.buttons[k] && (p.buttons[k].pressed || p.buttons[k] === 1));
+    const edge = pressed && st.armButtonSeen && !st.armButtonWas;
+    st.armButtonWas = pressed;
+    st.armButtonSeen = st.ready;
+    if (edge) {
+      if (st.armRequested) disarm();
+      else tryArm();
+    }
+  }
+
+  // Space disarms from the Fly screen whatever the input (it never arms).
+  window.addEventListener("keydown", (ev) => {
+    if (ev.code !== "Space" || ctx.screen !== "fly") return;
+    if (ev.target && ev.target.tagName === "BUTTON") ev.preventDefault();
+    if (st.armRequested) disarm();
+  });
+  window.addEventListener("keyup", (ev) => {
+    if (ev.code === "Space" && ctx.screen === "fly" && ev.target && ev.target.tagName === "BUTTON") ev.preventDefault();
+  });
 
   // SAFETY: the backend refused the arm request (or dropped it, e.g. after sticks went stale):
   // the page drops it as well, so arming again takes a new press with the throttle at zero.
@@ -580,6 +631,8 @@ export function initFly(ctx) {
 
   loadMapping();
   fillAxisSelects(4);
+  fillButtonSelect(0);
+  loop();
 }
 
 // AUX1..4 (-1..1, AUX1 = channel 5) that put the controller in `mode` ("angle", "horizon", "acro")
