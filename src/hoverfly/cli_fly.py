@@ -3,6 +3,7 @@
 import json
 import sys
 
+from hoverfly.cli_live import event_text
 from hoverfly.core.output import PROTOCOLS
 from hoverfly.core.params import check
 from hoverfly.errors import UserError
@@ -74,19 +75,6 @@ def _m(x):
     return "%.2f m" % (x + 0.0 if x != 0 else 0.0)
 
 
-def _event_text(e):
-    """`2.00 s armed (switch)`: the event in words, its detail only where it says something."""
-    name = e["event"].replace("_", " ")
-    detail = str(e["detail"])
-    if e["event"] == "mode":
-        return "%.2f s %s mode" % (e["t_s"], detail)
-    if e["event"] == "airmode":
-        return "%.2f s air mode %s" % (e["t_s"], "on" if detail not in ("0", "off") else "off")
-    if detail in ("", "0"):
-        return "%.2f s %s" % (e["t_s"], name)
-    return "%.2f s %s (%s)" % (e["t_s"], name, detail.replace("_", " "))
-
-
 def summary(r):
     alt = r["altitude_m"]
     o = r.get("outputs") or {}
@@ -110,7 +98,7 @@ def summary(r):
     for f in r.get("flips", []):
         lines.append("  flip %s: %d ms, lost %s of height, ended %.1f deg from level"
                      % (f["axis"], f["duration_ms"], _m(f["alt_loss_m"]), f["end_tilt_deg"]))
-    lines.append("  events: " + ("; ".join(_event_text(e) for e in r["events"]) or "none"))
+    lines.append("  events: " + ("; ".join(event_text(e) for e in r["events"]) or "none"))
     if o:
         lines.append("  outputs: %s ESCs, %d frames read, %d rejected, output failsafe tripped %d time(s)%s"
                      % (o["esc"], o["frames"], o["errors"], o["failsafe_trips"],

@@ -16,6 +16,19 @@ _DEG = 180.0 / math.pi
 _REFRESH_S = 0.1
 
 
+def event_text(e):
+    """`2.00 s armed (switch)`: the event in words, its detail only where it says something."""
+    name = e["event"].replace("_", " ")
+    detail = str(e["detail"])
+    if e["event"] == "mode":
+        return "%.2f s %s mode" % (e["t_s"], detail)
+    if e["event"] == "airmode":
+        return "%.2f s air mode %s" % (e["t_s"], "on" if detail not in ("0", "off") else "off")
+    if detail in ("", "0"):
+        return "%.2f s %s" % (e["t_s"], name)
+    return "%.2f s %s (%s)" % (e["t_s"], name, detail.replace("_", " "))
+
+
 class LiveView:
     def __init__(self, run, console=None):
         from rich.console import Console
@@ -66,9 +79,7 @@ class LiveView:
         self.alt_max_m = max(self.alt_max_m, v.altitude_m())
         events = run.events_out
         for e in events[self._events_shown:]:
-            from hoverfly.cli_fly import _event_text
-
-            self.console.print("  " + _event_text(e))
+            self.console.print("  " + event_text(e), markup=False)
         self._events_shown = len(events)
         if self.live is not None:
             self.live.update(self._panel())

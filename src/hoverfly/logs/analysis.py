@@ -80,6 +80,15 @@ def find_steps(log):
     return steps
 
 
+def euler_deg(q):
+    """(n, 4) quaternions w, x, y, z (body to NED) -> (n, 3) roll, pitch, yaw in degrees."""
+    w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+    roll = np.arctan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
+    pitch = np.arcsin(np.clip(2 * (w * y - z * x), -1, 1))
+    yaw = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+    return np.stack([roll, pitch, yaw], axis=1) * _DEG
+
+
 def _window(t, y, t0, t1):
     m = (t >= t0) & (t < t1)
     return t[m] - t0, y[m]
@@ -100,11 +109,7 @@ def log_steps(log, rate_t_s=None, rate_sp_rad_s=None, gyro_rad_s=None):
             rate_sp_rad_s = np.stack([np.interp(rate_t_s, sp["t_s"], sp[a]) for a in AXES], axis=1)
             gyro_rad_s = g[:n]
     att = log.vector("vehicle_attitude", "q", 4)
-    euler = None
-    if att is not None:
-        from hoverfly.logs.plot import euler_deg
-
-        euler = (log.topic("vehicle_attitude")["t_s"], euler_deg(att))
+    euler = None if att is None else (log.topic("vehicle_attitude")["t_s"], euler_deg(att))
     limit_deg = float(log.param("angle_limit", 60))
     out = []
     for a, t0, t1, mode, before, after in find_steps(log):

@@ -14,6 +14,7 @@ import matplotlib.pyplot as plt  # noqa: E402 - after the backend is chosen
 import numpy as np  # noqa: E402
 
 from hoverfly.logs import analysis  # noqa: E402
+from hoverfly.logs.analysis import euler_deg  # noqa: E402
 
 _DEG = 180.0 / np.pi
 AXES = ("roll", "pitch", "yaw")
@@ -24,15 +25,6 @@ def _save(fig, path):
     fig.savefig(path, dpi=90)
     plt.close(fig)
     return path
-
-
-def euler_deg(q):
-    """(n, 4) quaternions w, x, y, z (body to NED) -> (n, 3) roll, pitch, yaw in degrees."""
-    w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
-    roll = np.arctan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
-    pitch = np.arcsin(np.clip(2 * (w * y - z * x), -1, 1))
-    yaw = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
-    return np.stack([roll, pitch, yaw], axis=1) * _DEG
 
 
 _MODE_COLOURS = {0: "#fde7d0", 1: "#dcebf7", 2: "#e3f3dd"}  # acro, angle, horizon: light bands behind traces
