@@ -95,6 +95,7 @@ export function initFly(ctx) {
     armButtonSeen: false,  // the ARM button's state has been seen since the interlock passed
   };
   const keys = new Set();
+  let shiftHeld = false;
   let keyThrottle = 0;
   let lastTickMs = performance.now();
   let renderCount = 0;
@@ -253,18 +254,22 @@ export function initFly(ctx) {
       ev.preventDefault();
     }
     if (k === "x") keyThrottle = 0;
-    keys.shift = ev.shiftKey;
+    shiftHeld = ev.shiftKey;
   });
   window.addEventListener("keyup", (ev) => {
     keys.delete(ev.key.toLowerCase());
-    keys.shift = ev.shiftKey;
+    shiftHeld = ev.shiftKey;
   });
-  window.addEventListener("blur", () => keys.clear());
+  // SAFETY: keys released while the window is not focused never arrive: treat them all as let go.
+  window.addEventListener("blur", () => {
+    keys.clear();
+    shiftHeld = false;
+  });
 
   function readKeyboard(dtS) {
     if (keys.has("w")) keyThrottle = Math.min(1, keyThrottle + KEY_RATE_PER_S * dtS);
     if (keys.has("s")) keyThrottle = Math.max(0, keyThrottle - KEY_RATE_PER_S * dtS);
-    const d = keys.shift ? 1 : KEY_DEFLECTION;
+    const d = shiftHeld ? 1 : KEY_DEFLECTION;
     const axis = (neg, pos) => (keys.has(pos) ? d : 0) - (keys.has(neg) ? d : 0);
     return {
       roll: axis("arrowleft", "arrowright"),

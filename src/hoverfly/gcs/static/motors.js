@@ -8,6 +8,7 @@ import { token } from "./api.js";
 
 const $ = (id) => document.getElementById(id);
 
+const NEED_CONFIRMATION = "tick \"propellers removed\" to enable the sliders";
 const REFRESH_MS = 100; // well inside the backend's 500 ms dead-man, so one late request does not stop a test
 
 export function initMotors(ctx) {
@@ -93,9 +94,9 @@ export function initMotors(ctx) {
   });
 
   function refusal() {
-    if (!$("motor-props-removed").checked) return "tick \"propellers removed\" to enable the sliders";
     if (!ctx.linkUp()) return "no link to the controller";
     if (ctx.armed()) return "refused: the craft is armed. Disarm before testing motors.";
+    if (!$("motor-props-removed").checked) return NEED_CONFIRMATION;
     return null;
   }
 
@@ -104,8 +105,9 @@ export function initMotors(ctx) {
   function gate() {
     const why = refusal();
     for (const s of sliders) s.disabled = why !== null;
-    const shown = why && $("motor-props-removed").checked ? why : "";
-    $("motor-refused").textContent = shown;
+    // The missing confirmation speaks for itself (the checkbox); any other refusal is spelled out
+    // even before it is ticked, so an armed craft says so up front.
+    $("motor-refused").textContent = why && why !== NEED_CONFIRMATION ? why : "";
     if (why) stopAll(false);
     updateState();
   }
