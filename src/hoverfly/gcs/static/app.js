@@ -1,6 +1,7 @@
 // The ground station page: navigation, the top bar, the Status screen, and the wiring that hands
-// each screen the status (polled once a second over HTTP) and the telemetry (50 Hz over the
-// WebSocket). Each other screen lives in its own module with an init(ctx) function.
+// each screen the status (about once a second, over the WebSocket or else polled over HTTP) and
+// the telemetry (50 Hz over the WebSocket). Each other screen lives in its own module with an
+// init(ctx) function.
 
 import { api, showMessage, clearMessage, Socket } from "./api.js";
 import { drawHorizon } from "./horizon.js";

@@ -9,8 +9,7 @@ const MAX_WINDOW_S = 30;
 const CHART_HEIGHT = 190; // two rows of charts fit a 768 px laptop screen
 // Redraws at most 20 times a second: every sample is kept and drawn, and the main thread (which
 // also sends the Fly screen's sticks, and the backend gives up on them after 250 ms) is not spent
-// redrawing faster than the eye reads. Five charts took up to 11 ms a redraw in headless Chromium
-// on a loaded 2-core machine (shown live in #sensor-rate).
+// redrawing faster than the eye reads. #sensor-rate shows the slowest redraw of the last second.
 const MIN_REDRAW_MS = 50;
 
 const CHARTS = [
