@@ -169,6 +169,19 @@ export function initParams(ctx) {
     const def = document.createElement("td");
     def.className = "default";
     def.textContent = show(p.default);
+    if (p.value !== null && p.value !== undefined) {
+      // per-row revert: puts the default in the box as an edit, sent with the others
+      const revert = document.createElement("button");
+      revert.className = "revert";
+      revert.textContent = "↺";
+      revert.title = `back to the default (${show(p.default)})`;
+      revert.dataset.revert = p.name;
+      revert.onclick = () => {
+        input.value = show(p.default);
+        edited(p, input, tr);
+      };
+      def.append(" ", revert);
+    }
     const help = document.createElement("td");
     help.className = "help";
     help.textContent = p.help || "";
@@ -255,8 +268,11 @@ export function initParams(ctx) {
   }
 
   $("param-apply").onclick = async () => {
+    const needReboot = [...pending.keys()].filter((n) => byName.get(n) && byName.get(n).reboot);
     if (await applyPending()) {
-      showMessage("parameters applied (not yet saved to flash)", "info");
+      showMessage(needReboot.length
+        ? `parameters applied (not yet saved); ${needReboot.join(", ")} take effect after Save and a reboot`
+        : "parameters applied (not yet saved to flash)", "info");
       await load();
     }
   };
