@@ -61,8 +61,8 @@ export function initParams(ctx) {
       for (const p of rows) byName.set(p.name, p);
       loaded = true;
       const readable = rows.filter((p) => p.value !== null && p.value !== undefined).length;
-      $("param-note").textContent = readable < rows.length
-        ? `this link reads ${readable} of ${rows.length} parameters (the others need the MSP/CLI port)` : "";
+      $("param-note").textContent = readable < rows.length ? `${readable} of ${rows.length} readable on this link` : "";
+      $("param-note").title = readable < rows.length ? "the others need the MSP/CLI port" : "";
       render();
       loadDiff();
       for (const fn of ctx.paramHandlers) fn(byName);
@@ -149,7 +149,8 @@ export function initParams(ctx) {
     if (p.value === null || p.value === undefined) {
       // the link cannot read this row (the seed's maintenance protocol carries only a few)
       input.value = "";
-      input.placeholder = "not on this link";
+      input.placeholder = "—";
+      input.title = "not readable on this link (the MSP/CLI port has every parameter)";
       input.disabled = true;
     } else {
       input.value = show(pending.has(p.name) ? pending.get(p.name) : p.value);

@@ -137,8 +137,14 @@ export function initReceiver(ctx) {
     input.type = "text";
     input.dataset.param = p.name;
     input.dataset.screen = "receiver";
-    input.value = String(p.value);
     input.title = `${p.name}: ${p.min} .. ${p.max} ${p.unit || ""}`;
+    if (p.value === null || p.value === undefined) {
+      // not readable on this link (the seed's maintenance port carries no mode ranges)
+      input.disabled = true;
+      input.placeholder = "—";
+    } else {
+      input.value = String(p.value);
+    }
     input.addEventListener("input", () => {
       const v = Number(input.value);
       const ok = input.value.trim() !== "" && Number.isInteger(v) && v >= p.min && v <= p.max;
@@ -157,10 +163,13 @@ export function initReceiver(ctx) {
   function value(p) {
     return p.name in edits ? edits[p.name] : p.value;
   }
+  // a range drawn only when both ends are known
+  const known = (p) => p && value(p) !== null && value(p) !== undefined;
 
   function drawRanges() {
     for (const m of modes) {
-      if (!m.min) continue;
+      m.range.hidden = !known(m.min) || !known(m.max);
+      if (m.range.hidden) continue;
       const lo = pct(value(m.min));
       const hi = pct(value(m.max));
       m.range.style.left = `${Math.min(lo, hi)}%`;
@@ -205,7 +214,11 @@ export function initReceiver(ctx) {
 
   ctx.onParams((byName) => {
     const m = byName.get("rc_map");
-    if (m) {
+    const mapKnown = !!m && m.value !== null && m.value !== undefined;
+    $("rc-map").disabled = !mapKnown;
+    $("rc-map-apply").disabled = !mapKnown;
+    if (!mapKnown) $("rc-map-text").textContent = "the channel map is not readable on this link";
+    if (mapKnown) {
       letters = mapLetters(m.value) || letters;
       $("rc-map").value = letters;
       $("rc-map-text").textContent = `rc_map = ${m.value}`;
