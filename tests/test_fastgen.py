@@ -87,6 +87,8 @@ def demo_pass(co, st, io, n):
         else:
             st[40 + k] = 0
         st[48 + k] += 1
+        if co[11] > 0 and not co[0] or st[k]:  # truth tests on loads, as loaded
+            st[48 + k] += 2
         fout[k] = st[16 + k] * _INV16  # past 2**24: the encode rounds
         fout[8 + k] = st[32 + k] * _INV16
         m = fin[k]  # a float local: compared on its bits
@@ -173,6 +175,8 @@ bad = 0
 for n in range(4000):
     for k in range(12):
         v = (rnd() & 0x7FFF) - 0x4000
+        if rnd() & 7 == 0:
+            v = 0
         if k >= 2 and k < 10:
             v = 8 + rnd() % 23  # the run-time shifts
         if k == 10:

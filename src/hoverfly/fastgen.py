@@ -288,6 +288,23 @@ class Generator:
                 return result
         _fail(node, "%s is not in the dialect (docs/fastpass.md)" % ast.unparse(node))
 
+    def raw_load(self, node, scope):
+        """An 'i' array element as loaded, not sign-extended: for a use that is the same on its low 32 bits
+        zero-extended (a truth test, a shift count, which is never negative); anything else as expr."""
+        if isinstance(node, ast.Subscript) and isinstance(node.value, ast.Name) \
+                and scope.names.get(node.value.id, ("", "", ""))[0::2] == ("array", "i"):
+            return "%s[%s]" % (scope.names[node.value.id][1], self.expr(node.slice, scope))
+        return self.expr(node, scope)
+
+    def test(self, node, scope):
+        """An if's or a while's test: its array elements tested for truth as loaded."""
+        if isinstance(node, ast.BoolOp):
+            op = " and " if isinstance(node.op, ast.And) else " or "
+            return "(%s)" % op.join(self.test(v, scope) for v in node.values)
+        if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.Not):
+            return "(not %s)" % self.test(node.operand, scope)
+        return self.raw_load(node, scope)
+
     def operand(self, node, scope):
         """A comparison's operand: a truth value as an int (viper compares no two bools)."""
         text = self.expr(node, scope)
@@ -340,7 +357,7 @@ class Generator:
                 self.emit("%s = (%s + (%s >> 16) + %d) >> %d" % (r, hi, lo, 1 << (s - 17), s - 16))
             return r
         # a run-time shift goes with a configured coefficient, often 0 (a term that is off): skipped then
-        s = self.atom(self.expr(node.args[2], scope), "s")
+        s = self.atom(self.raw_load(node.args[2], scope), "s")
         self.emit("%s = 0" % r)
         self.emit("if %s != 0:" % c)
         self.emit("    if %s <= 16:" % s)
@@ -566,7 +583,7 @@ class Generator:
             self.stmt(s, scope, result, rename)
 
     def if_(self, test, body, orelse, scope, result, rename):
-        self.emit("if %s:" % self.expr(test, scope))
+        self.emit("if %s:" % self.test(test, scope))
         self.branch(body, scope, result, rename)
         self.orelse(orelse, scope, result, rename)
 
@@ -585,7 +602,7 @@ class Generator:
             # an elif, unless its test needs statements first (then they go inside an else)
             mark = len(self.lines)
             self.depth += 1
-            text = self.expr(stmts[0].test, scope)
+            text = self.test(stmts[0].test, scope)
             self.depth -= 1
             if len(self.lines) == mark:
                 self.emit("elif %s:" % text)
@@ -710,7 +727,7 @@ class Generator:
             return
         if isinstance(s, ast.While):
             mark = len(self.lines)
-            text = self.expr(s.test, scope)
+            text = self.test(s.test, scope)
             if len(self.lines) != mark or s.orelse:
                 _fail(s, "a while test is plain arithmetic (no product, decode or helper) and has no else")
             self.emit("while %s:" % text)
