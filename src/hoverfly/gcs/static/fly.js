@@ -320,7 +320,6 @@ export function initFly(ctx) {
               calWork.max[i] = Math.max(calWork.max[i] ?? v, v);
             });
           }
-          st.lastAxes = [...p.axes];
           padButton(p);
           sticks = sticksFromAxes(p.axes, mapping, invert, cal, expo());
         }
@@ -345,9 +344,7 @@ export function initFly(ctx) {
         st.lost = null;
       }
       st.sending = false;
-    } else if (ctx.screen !== "fly" && !st.armRequested && !st.fcArmed) {
-      // The Fly screen takes control: a pad left plugged in while configuring sends nothing. Once
-      // armed, sticks keep going from any screen, so a look at Status does not drop the craft.
+    } else if (!mayControl()) {
       st.sending = false;
     } else if (!linkUp) {
       // SAFETY: no link, no arm request carried over to when it returns.
@@ -371,6 +368,15 @@ export function initFly(ctx) {
       }
     }
     if (++renderCount % RENDER_EVERY === 0) render();
+  }
+
+  // SAFETY: the Fly screen takes control of a disarmed controller only: a pad left plugged in while
+  // configuring sends nothing, and a craft already armed by its own receiver is not taken over
+  // (the override replaces the receiver, and would disarm it). Once in control, sticks keep going
+  // from any screen while armed, so a look at Status does not drop the craft.
+  function mayControl() {
+    if (st.sending) return ctx.screen === "fly" || st.armRequested || st.fcArmed;
+    return ctx.screen === "fly" && !st.fcArmed;
   }
 
   function round(x) {
@@ -547,9 +553,8 @@ export function initFly(ctx) {
     if (st.source === "gamepad" && st.padIndex === null) return ["no gamepad: connect one and press a button", "none"];
     if (!st.ready) return ["waiting: centre the sticks and pull the throttle to zero", "interlock"];
     if (!ctx.linkUp()) return ["no link: not sending", "nolink"];
-    if (!st.sending && !st.armRequested && !st.fcArmed && ctx.screen !== "fly") {
-      return ["standby: sticks are sent only from the Fly screen", "standby"];
-    }
+    if (!st.sending && st.fcArmed) return ["standby: the controller is armed and this page is not flying it: not taking over", "standby"];
+    if (!st.sending && ctx.screen !== "fly") return ["standby: sticks are sent only from the Fly screen", "standby"];
     if (st.fcArmed) return ["ARMED", "armed"];
     if (st.armRequested) return ["arming…", "arming"];
     if (st.ready && st.sticks.throttle > 0) return ["ready, disarmed (throttle up: lower it to arm)", "ready"];
