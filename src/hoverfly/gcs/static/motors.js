@@ -108,7 +108,7 @@ export function initMotors(ctx) {
     // The missing confirmation speaks for itself (the checkbox); any other refusal is spelled out
     // even before it is ticked, so an armed craft says so up front.
     $("motor-refused").textContent = why && why !== NEED_CONFIRMATION ? why : "";
-    if (why) stopAll(false);
+    if (why) stopAll(true);
     updateState();
   }
 
@@ -133,7 +133,7 @@ export function initMotors(ctx) {
       running = true;
       sendRefresh();
     } else if (running) {
-      stopAll(true);
+      stopAll(false);
     }
     updateState();
   }
@@ -162,8 +162,10 @@ export function initMotors(ctx) {
     });
   }
 
-  function stopAll(zeroSliders) {
-    if (zeroSliders === false) {
+  // Ends a running test (one stop request, queued after any refresh in flight); `zero` also puts
+  // the sliders back to 0 when the stop comes from elsewhere than the sliders themselves.
+  function stopAll(zero) {
+    if (zero) {
       for (const s of sliders) s.value = "0";
       for (const o of outs) o.pct.textContent = "0 %";
     }
@@ -184,7 +186,7 @@ export function initMotors(ctx) {
     for (const s of sliders) s.value = "0";
     for (const o of outs) o.pct.textContent = "0 %";
     running = true; // send the stop even if the page believed nothing ran
-    stopAll(true);
+    stopAll(false);
   }
 
   setInterval(() => {
