@@ -11,6 +11,7 @@ import { initMotors } from "./motors.js";
 import { initSensors } from "./sensors.js";
 import { initMaint } from "./maint.js";
 import { initFly } from "./fly.js";
+import { initLogs } from "./logs.js";
 
 const $ = (id) => document.getElementById(id);
 
@@ -351,6 +352,7 @@ initMotors(ctx);
 initSensors(ctx);
 initMaint(ctx);
 initFly(ctx);
+initLogs(ctx);
 
 ctx.socket.connect();
 showScreen((location.hash || "#status").slice(1));
