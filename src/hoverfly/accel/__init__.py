@@ -1,8 +1,12 @@
-"""Native-code twins (`@micropython.viper`) of the flight pass's byte-level stages, MicroPython only.
+"""Native-code twins (`@micropython.viper`) of the flight pass's stages, MicroPython only.
 
 Not portable code: viper compiles to the target's machine code, so mpy-cross needs its `-march`
-(`hoverfly flash` passes the chip's) and CPython cannot import these modules. The portable modules
-that use them (protocols/crsf.py, protocols/dshot.py, drivers/mpu6050.py) import them on MicroPython
-only, inside try/except, and keep their own Python code as the twin and the fallback;
-tests/portable/test_viper_twins.py checks both give the same results. docs/micropython-accel.md.
+(`hoverfly flash` passes the chip's) and CPython cannot import these modules. The portable module that
+uses one imports it on MicroPython only, inside try/except, and keeps its own Python code as the
+reference and the fallback; the twin tests check both give the same bits.
+
+imufilter, rate, att, output and sched are generated from the fixed-point Python by hoverfly.fastgen
+(docs/fastpass.md) and are not in git (.gitignore); crsf, dshot, mpu6050, rc and faults are still
+written by hand (docs/micropython-accel.md). addr.py holds what the generated ones share: `bind` and
+the encode's `LOG2` table.
 """
