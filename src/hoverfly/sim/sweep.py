@@ -184,8 +184,8 @@ def _progress_noop(done, total):
 
 
 def _worker_ignores_ctrl_c():
-    # Ctrl-C reaches every process of the terminal's group: the parent alone decides to stop, and a
-    # worker finishes the flight it has (its row is dropped) rather than dying with a traceback.
+    # Ctrl-C reaches every process of the terminal's group: the parent alone decides to stop (and ends
+    # the workers), so no worker dies with a traceback of its own.
     import signal
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -202,22 +202,20 @@ def run_local(jobs, workers, progress=_progress_noop):
         except KeyboardInterrupt:
             return rows, True
         return rows, False
-    import concurrent.futures as cf
     import multiprocessing
 
     # fork: a worker starts with hoverfly already imported (spawn costs each worker ~0.5 s of imports)
     ctx = multiprocessing.get_context("fork" if "fork" in multiprocessing.get_all_start_methods() else None)
-    pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_worker_ignores_ctrl_c)
     interrupted = False
-    try:
-        futures = [pool.submit(fly_job, job) for job in jobs]
-        for f in cf.as_completed(futures):
-            rows.append(f.result())
-            progress(len(rows), len(jobs))
-    except KeyboardInterrupt:
-        interrupted = True
-    finally:
-        pool.shutdown(wait=not interrupted, cancel_futures=True)
+    # Leaving the with-block terminates the workers: on Ctrl-C the flights under way stop at once
+    # (their rows are dropped) instead of holding the exit until they land.
+    with ctx.Pool(workers, initializer=_worker_ignores_ctrl_c) as pool:
+        try:
+            for row in pool.imap_unordered(fly_job, jobs):
+                rows.append(row)
+                progress(len(rows), len(jobs))
+        except KeyboardInterrupt:
+            interrupted = True
     return rows, interrupted
 
 

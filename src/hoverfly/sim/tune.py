@@ -248,24 +248,27 @@ class _Flights:
     def __init__(self, workers):
         self.pool = None
         if workers > 1:
-            import concurrent.futures as cf
             import multiprocessing
 
             from hoverfly.sim.sweep import _worker_ignores_ctrl_c
 
             ctx = multiprocessing.get_context("fork" if "fork" in multiprocessing.get_all_start_methods()
                                               else None)
-            self.pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx,
-                                               initializer=_worker_ignores_ctrl_c)
+            self.pool = ctx.Pool(workers, initializer=_worker_ignores_ctrl_c)
 
     def map(self, jobs):
         if self.pool is None:
             return [_fly_job(j) for j in jobs]
-        return list(self.pool.map(_fly_job, jobs))
+        return self.pool.map(_fly_job, jobs, chunksize=1)
 
     def close(self, wait=True):
+        """End the workers: after the last flight, or at once on Ctrl-C (flights under way are dropped)."""
         if self.pool is not None:
-            self.pool.shutdown(wait=wait, cancel_futures=True)
+            if wait:
+                self.pool.close()
+            else:
+                self.pool.terminate()
+            self.pool.join()
 
 
 def tune(airframe, trials=40, train_seeds=(1, 2), check_seeds=(101, 102, 103), workers=1, sampler_seed=0,
