@@ -69,6 +69,8 @@ class SimEsc:
         self._cmd_run = 0
         self._cmd_value = -1
         self._throttle_word = -1  # the last good throttle frame: the same word decodes the same way
+        self._reply_word = -1  # the last bidirectional reply and its line code
+        self._reply_code = 0
         if self.dshot:
             self._line_normal = DshotPulseDecoder(self.speed_kbit, bidir=False)
             self._line_bidir = DshotPulseDecoder(self.speed_kbit, bidir=True)
@@ -153,7 +155,12 @@ class SimEsc:
 
     def reply_code(self, omega_rad_s):
         """The reply as its 21-bit GCR line code (start bit included)."""
-        return gcr_encode(self.reply_word(omega_rad_s))
+        word = self.reply_word(omega_rad_s)
+        if word != self._reply_word:
+            # the eRPM word holds a 9-bit period: a steady rotor sends the same word pass after pass
+            self._reply_word = word
+            self._reply_code = gcr_encode(word)
+        return self._reply_code
 
     # ----------------------------------------------------------- analog
     def receive_pulse_us(self, width_us):
