@@ -315,15 +315,6 @@ class RcInput:
         self._fs_switch = (0, 1700, 2100)
         self._smooth_type = "pt2"
         self._thr_bands = None  # seed 001: (DESCEND, HOVERING, CLIMB) µs, or None for the raw stick
-        # update()'s PT2 fast path, per filter (roll, pitch, yaw, throttle): `_still[i]` when its last
-        # update changed neither state with input `_held[i]`, so the same input gives the same output
-        # again (test_rc_fast_path checks this against the plain Pt2). Then the smoothed value
-        # `_out[i]`, its rate `_rate_rad_s[i]` (sticks) and angle `_angle_rad[i]` (roll, pitch) are reused.
-        self._still = [False, False, False, False]
-        self._held = [0.0, 0.0, 0.0, 0.0]
-        self._out = [0.0, 0.0, 0.0, 0.0]
-        self._rate_rad_s = [0.0, 0.0, 0.0]
-        self._angle_rad = [0.0, 0.0]
         # The fixed-point stick shaping (rc_pass; see the module docstring): its coefficients and state,
         # and the floats it last made for the angles and the throttle (remade only when they change).
         self.fixed = False
@@ -414,9 +405,8 @@ class RcInput:
             k += 3
 
     def _forget(self):
-        """Drop update()'s and new_frame()'s reused results (the filters, curves, limits or deadbands changed)."""
+        """Drop new_frame()'s reused results (the filters, curves, limits or deadbands changed)."""
         for i in range(4):
-            self._still[i] = False
             self._last_us[i] = -1
         if self.fixed:
             self._refresh()
@@ -605,55 +595,24 @@ class RcInput:
         sp.throttle_norm = self._throttle_norm
 
     def _update_float(self, sp):
+        """update() in float: each stick and the throttle through its filter, then the rates and angles."""
         f = self.filters
+        s = sp.stick_norm
+        raw = self.stick_raw
         if self._smooth_type != "pt2":
             # Alpha-beta overshoots a step (its velocity term): held to the sticks' range, so a full stick
             # never asks for more than angle_limit or the full rate.
-            s = sp.stick_norm
-            raw = self.stick_raw
             for i in range(3):
                 v = f[i].update(raw[i])
                 s[i] = 1.0 if v > 1.0 else (-1.0 if v < -1.0 else v)
             v = f[3].update(self.throttle_raw)
             sp.throttle_norm = 1.0 if v > 1.0 else (0.0 if v < 0.0 else v)
-            self.fill_setpoint(sp)
-            return
-        # PT2 (the default): Pt2.update's arithmetic inline on the same filter objects, and a filter
-        # that sits still on an unchanged input is not run at all: sticks at rest cost no floats
-        # (each float result is a heap object on MicroPython). See __init__ for the bookkeeping.
-        still = self._still
-        held = self._held
-        out = self._out
-        s = sp.stick_norm
-        r = sp.rate_rad_s
-        raw = self.stick_raw
-        for i in range(4):  # roll, pitch, yaw, throttle
-            x = raw[i] if i < 3 else self.throttle_raw
-            moved = not (still[i] and x == held[i])
-            if moved:
-                flt = f[i]
-                k = flt.k
-                s1 = flt.s1
-                y = flt.y
-                s1_new = s1 + k * (x - s1)
-                y_new = y + k * (s1_new - y)
-                flt.s1 = s1_new
-                flt.y = y_new
-                still[i] = s1_new == s1 and y_new == y
-                held[i] = x
-                out[i] = y_new
-            if i == 3:
-                sp.throttle_norm = out[3]
-            else:
-                s[i] = out[i]
-                if moved:
-                    v = s[i]  # the stored (float32) value, as fill_setpoint reads it
-                    self._rate_rad_s[i] = self.rates[i].rate_rad_s(v)
-                    if i < 2:
-                        self._angle_rad[i] = v * self.angle_limit_rad
-                r[i] = self._rate_rad_s[i]
-        sp.roll_angle_rad = self._angle_rad[0]
-        sp.pitch_angle_rad = self._angle_rad[1]
+        else:
+            s[0] = f[0].update(raw[0])
+            s[1] = f[1].update(raw[1])
+            s[2] = f[2].update(raw[2])
+            sp.throttle_norm = f[3].update(self.throttle_raw)
+        self.fill_setpoint(sp)
 
     def fill_setpoint(self, sp):
         s = sp.stick_norm
