@@ -171,14 +171,24 @@ class _CountingDecoder:
 
 
 class _ByteBoard:
-    def __init__(self, reads):
+    def __init__(self, reads, taken=None):
         self.reads = reads
         self.sent = 0
+        self.taken = taken  # [frames core 0 took so far]: core 1 waits on it every 1000 reads
+        self._seen = 0
 
     def read_rx(self, buf):
         if self.reads == 0:
             raise OSError(5)  # the UART failed: core 1's loop stops
         self.reads -= 1
+        if self.taken is not None and self.reads % 1000 == 0:
+            # On a loaded host core 1 can run all its reads before core 0 is scheduled once, and the test would
+            # then check no handover at all: wait (at most 1 s) until core 0 has taken a frame since the last wait.
+            for _ in range(10000):
+                if self.taken[0] > self._seen:
+                    break
+                sleep_us(100)
+            self._seen = self.taken[0]
         return 1
 
     def write_rx(self, data, n):
@@ -203,7 +213,8 @@ def test_a_thread_publishing_as_fast_as_it_can_never_hands_over_a_torn_frame():
     rx.configure(p)
     rx.start(T0)
     rx.use_core1(link)  # its own RxCore is not started: the counting one publishes on the link
-    board = _ByteBoard(20000)
+    taken = [0]
+    board = _ByteBoard(20000, taken)
     _thread.start_new_thread(core.run, (board,))
     took = 0
     t = T0
@@ -213,6 +224,7 @@ def test_a_thread_publishing_as_fast_as_it_can_never_hands_over_a_torn_frame():
         t = ticks_add(t, 100)
         if rx.update(t, board):
             took += 1
+            taken[0] = took
             v = rx.channels_us[0]
             assert v == 1000 + rx.decoder.frames % 1000, (v, rx.decoder.frames)
             for c in rx.channels_us:
