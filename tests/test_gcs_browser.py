@@ -31,7 +31,7 @@ if CHROMIUM is None:
 from playwright.sync_api import expect, sync_playwright  # noqa: E402
 
 OUT = REPO / "out" / "gcs"
-SCREENS = ("status", "params", "receiver", "motors", "sensors", "maint", "fly")
+SCREENS = ("status", "params", "receiver", "motors", "sensors", "maint", "fly", "logs")
 
 # A gamepad the test holds: the page polls navigator.getGamepads() (docs/gcs.md "UI", Fly). Standard
 # mapping, mode 2: axes[0] yaw, [1] throttle (+1 = stick down = zero), [2] roll, [3] pitch.
@@ -45,11 +45,13 @@ navigator.getGamepads = () => (window.__pad && window.__pad.connected) ? [window
 class GcsProcess:
     """`hoverfly gcs` as a user starts it; its URL (with the token) from what it prints."""
 
-    def __init__(self, url):
+    def __init__(self, url, logs_dir=None):
         self.http_port = _free_port()
         port = ["--port", url] if url else []
+        logs = ["--logs", str(logs_dir)] if logs_dir else []
         self.proc = subprocess.Popen(
-            [sys.executable, "-m", "hoverfly.cli", "gcs"] + port + ["--http-port", str(self.http_port), "--no-browser"],
+            [sys.executable, "-m", "hoverfly.cli", "gcs"] + port + logs
+            + ["--http-port", str(self.http_port), "--no-browser"],
             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=REPO)
         self.url = None
         deadline = time.monotonic() + 20
@@ -268,6 +270,24 @@ def test_the_maintenance_screen_reads_header_fields_and_runs_seed_commands(brows
         expect(page.locator("#maint-reply")).to_contain_text("set_roll_pid: ok", timeout=5000)
         assert g.param("p_roll") == 52
         _shot(page, "maint")
+        page.context.close()
+    finally:
+        g.stop()
+
+
+def test_the_logs_screen_lists_a_flight_log_and_shows_its_report(browser, sim, tmp_path):
+    from hoverfly.sim.runner import SimRun
+
+    SimRun("5inch", "hover", seed=4, duration_s=3.0, log_path=str(tmp_path / "hover.ulg")).run()
+    g = GcsProcess(sim.url("msp"), tmp_path)
+    try:
+        page = _page(browser, g.url)
+        page.click("#nav-logs")
+        expect(page.locator("#logs-body tr[data-log='hover.ulg']")).to_be_visible(timeout=10000)
+        page.click("button[data-report='hover.ulg']")
+        frame = page.frame_locator("#log-report")
+        expect(frame.locator("h1")).to_contain_text("Flight log hover.ulg", timeout=60000)
+        _shot(page, "logs")
         page.context.close()
     finally:
         g.stop()
