@@ -98,6 +98,10 @@ class SimRun:
         self.airframe = load_airframe(airframe) if isinstance(airframe, str) else airframe
         self.scenario = load_scenario(scenario) if isinstance(scenario, str) else scenario
         self.seed = seed
+        if self.airframe.get("kind") == "plane" and self.airframe["frame"] not in MIXER_TABLES:
+            raise UserError("airframe %s is a plane (mixer_type %s): the fixed-wing flight core is not built yet "
+                            "(issue 23); its physics is in sim/plane.py"
+                            % (self.airframe["name"], self.airframe["frame"]))
         self.params = build_params(self.airframe, self.scenario, overrides)
         # The simulated transmitter speaks `rx`; the flight controller is set up to match.
         err = self.params.set("rx_provider", rx)

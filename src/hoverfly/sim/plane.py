@@ -1,0 +1,277 @@
+"""Fixed-wing physics: a JSBSim aircraft stepped in lockstep at the loop rate.
+
+The plane offers the same truth as the quad's physics.Vehicle (body rates p/q/r, specific force
+fx/fy/fz at the IMU, attitude quaternion qw..qz, NED position pn/pe/pd and velocity vn/ve/vd,
+on_ground, crashed, wind_n/e/d, a battery, the motor speed in `omega` for the vibration model), so
+sensors.ImuModel, the sim board and the flight core read it without knowing which physics flies.
+Extra for a plane: airspeed_m_s, alpha_rad, and the surfaces it was last commanded.
+
+Inputs: the board's servo positions (-1..1, after each simulated servo's own end points, see
+sim/esc.SimServo) and the motor command (0..1). The airframe's [servos] table says which servo
+drives which surface and which way: `direction = 1` means the servo moving towards its max end
+point rolls right / pitches up / yaws right (for an elevon: raises its trailing edge). The
+JSBSim models take JSBSim's usual signs (+aileron-cmd rolls right, +elevator-cmd pitches nose
+down, +rudder-cmd yaws nose left), so pitch and yaw are negated on the way in.
+
+JSBSim works in feet, pounds and knots; everything is converted here, at this one boundary.
+"""
+
+import math
+import pathlib
+
+from hoverfly.errors import UserError
+from hoverfly.sim.physics import Battery
+
+ROOT = pathlib.Path(__file__).parent / "jsbsim"
+FT = 0.3048
+LBF_N = 4.4482216
+HP_W = 745.69987
+G_M_S2 = 9.80665
+_START_LAT_DEG = 47.0
+_START_LON_DEG = 8.0
+_EARTH_M = 6371000.0
+# A belly landing harder than this (vertical speed at first contact) breaks the plane.
+_CRASH_DOWN_M_S = 4.0
+_DRIVE_EFFICIENCY = 0.75  # motor x ESC: shaft power -> battery power
+
+# Read every step, in this order, through property nodes (one C call each, no name lookups).
+_READ = ("velocities/p-rad_sec", "velocities/q-rad_sec", "velocities/r-rad_sec",
+         "accelerations/a-pilot-x-ft_sec2", "accelerations/a-pilot-y-ft_sec2", "accelerations/a-pilot-z-ft_sec2",
+         "attitude/phi-rad", "attitude/theta-rad", "attitude/psi-rad",
+         "position/lat-geod-deg", "position/long-gc-deg", "position/h-agl-ft",
+         "velocities/v-north-fps", "velocities/v-east-fps", "velocities/v-down-fps",
+         "velocities/vt-fps", "forces/fbz-gear-lbs", "propulsion/engine/propeller-rpm",
+         "aero/alpha-rad", "propulsion/engine/power-hp")
+
+# surface -> (aileron, elevator, rudder) JSBSim command per unit of servo position (direction +1)
+SURFACES = {
+    "aileron": (1.0, 0.0, 0.0),
+    "elevator": (0.0, -1.0, 0.0),
+    "rudder": (0.0, 0.0, -1.0),
+    # an elevon raising its trailing edge pitches up and rolls towards its own side
+    "elevon_left": (-0.5, -0.5, 0.0),
+    "elevon_right": (0.5, -0.5, 0.0),
+    # a V-tail ruddervator raising its trailing edge pitches up and yaws towards its own side
+    "ruddervator_left": (0.0, -0.5, 0.5),
+    "ruddervator_right": (0.0, -0.5, -0.5),
+}
+
+
+def _jsbsim():
+    try:
+        import jsbsim
+    except ImportError:
+        raise UserError("the plane simulator needs JSBSim: pip install jsbsim") from None
+    return jsbsim
+
+
+def model_file(airframe):
+    """The JSBSim XML an airframe flies: a built-in model, or the user's own file (`xml`)."""
+    if airframe.get("xml"):
+        return pathlib.Path(airframe["xml"])
+    return ROOT / "aircraft" / airframe["model"] / (airframe["model"] + ".xml")
+
+
+def load_fdm(airframe, dt_s):
+    """A JSBSim executive with the airframe's model loaded; UserError if JSBSim refuses it.
+
+    A user's XML is looked for beside its engine files: an engine/ folder next to it (or the
+    folder it sits in), then hoverfly's own engines."""
+    jsbsim = _jsbsim()
+    jsbsim.FGJSBBase().debug_lvl = 0  # keep JSBSim's banner off stdout (fly --json prints there)
+    xml = model_file(airframe)
+    if not xml.exists():
+        raise UserError("airframe %s: no JSBSim model %s" % (airframe["name"], xml))
+    fdm = jsbsim.FGFDMExec(root_dir=str(ROOT))
+    fdm.set_debug_level(0)
+    fdm.set_dt(dt_s)
+    engines = ROOT / "engine"
+    for d in (xml.parent / "engine", xml.parent.parent.parent / "engine", xml.parent):
+        if d.is_dir() and any(d.glob("*.xml")) and d != xml.parent:
+            engines = d
+            break
+    try:
+        ok = fdm.load_model_with_paths(xml.stem, str(xml.parent), str(engines), str(ROOT / "systems"), False)
+    except Exception as exc:  # JSBSim raises its own types for malformed XML
+        first = (str(exc).strip().splitlines() or [""])[0]
+        raise UserError("airframe %s: JSBSim cannot load %s: %s" % (airframe["name"], xml.name, first)) from None
+    if not ok:
+        raise UserError("airframe %s: JSBSim cannot load %s" % (airframe["name"], xml.name))
+    return fdm
+
+
+class Plane:
+    """One JSBSim aircraft in lockstep: step(dt, motor_cmd) advances one loop period."""
+
+    kind = "plane"
+
+    def __init__(self, airframe, loop_hz):
+        self.airframe = airframe
+        self.dt_s = 1.0 / loop_hz
+        self.fdm = load_fdm(airframe, self.dt_s)
+        pm = self.fdm.get_property_manager()
+        self._nodes = []
+        for name in _READ:
+            node = pm.get_node(name, False)
+            if node is None:
+                raise UserError("airframe %s: JSBSim model %s lacks %s" % (airframe["name"], airframe["model"], name))
+            self._nodes.append(node)
+        self._set_nodes = [pm.get_node(n, True) for n in
+                           ("fcs/aileron-cmd-norm", "fcs/elevator-cmd-norm", "fcs/rudder-cmd-norm",
+                            "fcs/throttle-cmd-norm", "external_reactions/hand-forward/magnitude",
+                            "external_reactions/hand-up/magnitude")]
+        self.mass_kg = self.fdm["inertia/weight-lbs"] * LBF_N / G_M_S2
+        b = airframe["battery"]
+        self.battery = Battery(b["cells"], b["capacity_mah"], b["r_int_ohm"])
+        # servo wiring: (servo index, aileron, elevator, rudder) per wired surface
+        self.wiring = []
+        for surface, spec in airframe["servos"].items():
+            ka, ke, kr = SURFACES[surface]
+            d = spec["direction"]
+            self.wiring.append((spec["servo"], ka * d, ke * d, kr * d))
+        self.servo_pos = [0.0] * 8  # the runner hands the board's servo positions list in here
+        self.n = 1
+        self.omega = [0.0]
+        self.servo_cmd = 0.0
+        self.hand_forward_n = 0.0
+        self.hand_up_n = 0.0
+        self.reset()
+
+    def hover_omega(self):
+        """The motor speed the vibration model scales by: full-throttle static speed (a plane never hovers)."""
+        return self.airframe.get("motor_rad_s", 900.0)
+
+    # ------------------------------------------------------------------ start
+    def reset(self, altitude_m=0.0, roll_rad=0.0, pitch_rad=0.0, yaw_rad=0.0, airspeed_m_s=0.0):
+        """Start on the ground (altitude 0: resting on its contacts) or in flight at airspeed."""
+        fdm = self.fdm
+        fdm["ic/lat-geod-deg"] = _START_LAT_DEG
+        fdm["ic/long-gc-deg"] = _START_LON_DEG
+        fdm["ic/terrain-elevation-ft"] = 0.0
+        # on the ground the contacts touch at a few cm: start just above them and let it settle
+        fdm["ic/h-agl-ft"] = (altitude_m if altitude_m > 0.0 else self.airframe.get("rest_height_m", 0.08)) / FT
+        fdm["ic/phi-rad"] = roll_rad
+        fdm["ic/theta-rad"] = pitch_rad
+        fdm["ic/psi-true-rad"] = yaw_rad
+        fdm["ic/vc-kts"] = airspeed_m_s / 0.514444
+        for k in ("ic/p-rad_sec", "ic/q-rad_sec", "ic/r-rad_sec"):
+            fdm[k] = 0.0
+        fdm.run_ic()
+        fdm["propulsion/set-running"] = -1
+        # JSBSim's electric motor is an ideal constant-power source: its torque (power / speed) is
+        # unbounded at standstill and a motor start would kick the airframe into a roll it cannot
+        # have. Without a sense the propeller still makes its thrust; the torque reaction and
+        # gyroscopic moments (a few % of the aileron's authority on these models) are left out.
+        fdm["propulsion/engine/propeller-sense"] = 0.0
+        self._cos_lat0 = math.cos(math.radians(_START_LAT_DEG))
+        self.wind_n = self.wind_e = self.wind_d = 0.0
+        self._wind_sent = (0.0, 0.0, 0.0)
+        self.crashed = False
+        self.impact_m_s = 0.0
+        self.hand_forward_n = 0.0
+        self.hand_up_n = 0.0
+        self.aileron_cmd = self.elevator_cmd = self.rudder_cmd = self.throttle_cmd = 0.0
+        self.on_ground = altitude_m <= 0.0
+        self._read()
+        self.on_ground = altitude_m <= 0.0
+
+    # ------------------------------------------------------------------ step
+    def step(self, dt, motor_cmd):
+        pos = self.servo_pos
+        ail = ele = rud = 0.0
+        for servo, ka, ke, kr in self.wiring:
+            s = pos[servo]
+            ail += ka * s
+            ele += ke * s
+            rud += kr * s
+        ail = -1.0 if ail < -1.0 else (1.0 if ail > 1.0 else ail)
+        ele = -1.0 if ele < -1.0 else (1.0 if ele > 1.0 else ele)
+        rud = -1.0 if rud < -1.0 else (1.0 if rud > 1.0 else rud)
+        thr = motor_cmd[0]
+        thr = 0.0 if thr < 0.0 else (1.0 if thr > 1.0 else thr)
+        self.aileron_cmd = ail
+        self.elevator_cmd = ele
+        self.rudder_cmd = rud
+        self.throttle_cmd = thr
+        sn = self._set_nodes
+        sn[0].set_double_value(ail)
+        sn[1].set_double_value(ele)
+        sn[2].set_double_value(rud)
+        sn[3].set_double_value(thr)
+        sn[4].set_double_value(self.hand_forward_n / LBF_N)
+        sn[5].set_double_value(self.hand_up_n / LBF_N)
+        wind = (self.wind_n, self.wind_e, self.wind_d)
+        if wind != self._wind_sent:  # the runner's wind and gust events
+            fdm = self.fdm
+            fdm["atmosphere/wind-north-fps"] = wind[0] / FT
+            fdm["atmosphere/wind-east-fps"] = wind[1] / FT
+            fdm["atmosphere/wind-down-fps"] = wind[2] / FT
+            self._wind_sent = wind
+        self.fdm.run()
+        was_on_ground = self.on_ground
+        vd_before = self.vd
+        self._read()
+        if self.on_ground and not was_on_ground:
+            self.impact_m_s = max(vd_before, self.vd)
+            if self.impact_m_s > _CRASH_DOWN_M_S:
+                self.crashed = True
+        if self.battery is not None:
+            power_w = self._power_hp * HP_W / _DRIVE_EFFICIENCY
+            v = self.battery.voltage_v
+            self.battery.step(power_w / v if v > 1.0 else 0.0, dt)
+
+    def _read(self):
+        (p, q, r, ax, ay, az, phi, theta, psi, lat, lon, h_agl, vn, ve, vd, vt, fbz, rpm, alpha,
+         power_hp) = [n.get_double_value() for n in self._nodes]
+        self.p = p
+        self.q = q
+        self.r = r
+        self.fx = ax * FT
+        self.fy = ay * FT
+        self.fz = az * FT
+        self.roll_rad = phi
+        self.pitch_rad = theta
+        self.yaw_rad = psi
+        cr = math.cos(phi * 0.5)
+        sr = math.sin(phi * 0.5)
+        cp = math.cos(theta * 0.5)
+        sp = math.sin(theta * 0.5)
+        cy = math.cos(psi * 0.5)
+        sy = math.sin(psi * 0.5)
+        self.qw = cr * cp * cy + sr * sp * sy
+        self.qx = sr * cp * cy - cr * sp * sy
+        self.qy = cr * sp * cy + sr * cp * sy
+        self.qz = cr * cp * sy - sr * sp * cy
+        self.pn = math.radians(lat - _START_LAT_DEG) * _EARTH_M
+        self.pe = math.radians(lon - _START_LON_DEG) * _EARTH_M * self._cos_lat0
+        self.pd = -h_agl * FT
+        self.vn = vn * FT
+        self.ve = ve * FT
+        self.vd = vd * FT
+        self.airspeed_m_s = vt * FT
+        self.alpha_rad = alpha
+        # STRUCTURE contacts never set gear/wow: any ground force means contact
+        self.on_ground = fbz < -1e-3
+        self.omega[0] = rpm * (math.pi / 30.0)
+        self._power_hp = power_hp if power_hp > 0.0 else 0.0
+
+    # ------------------------------------------------------------------ hand launch
+    def hold(self, holding):
+        """The pilot holds the plane up (weight carried by the hand) or lets go."""
+        self.hand_up_n = self.mass_kg * G_M_S2 if holding else 0.0
+
+    def throw(self, forward_n, up_n):
+        """The throw's push through the hand (N along the body x axis, N upwards); zero: let go."""
+        self.hand_forward_n = forward_n
+        self.hand_up_n = up_n
+
+    # ------------------------------------------------------------------ truth
+    def euler_rad(self):
+        return self.roll_rad, self.pitch_rad, self.yaw_rad
+
+    def tilt_rad(self):
+        c = math.cos(self.roll_rad) * math.cos(self.pitch_rad)
+        return math.acos(1.0 if c > 1.0 else (-1.0 if c < -1.0 else c))
+
+    def altitude_m(self):
+        return -self.pd
