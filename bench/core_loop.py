@@ -38,7 +38,7 @@ if sys.implementation.name == "micropython":
                   "accel.att", "core.fixedatt", "core.mixer", "core.pid", "accel.rate", "core.fixedrate",
                   "core.arming", "accel.faults", "core.failsafe", "accel.rc", "core.rc", "accel.sched",
                   "core.scheduler", "core.signals", "accel.output", "accel.dshot", "core.output", "core.receiver",
-                  "core.logger", "core.flight"):
+                  "core.logger", "core.commander", "core.supervisor", "core.flight"):
         gc.collect()
         try:
             __import__("hoverfly." + _name)

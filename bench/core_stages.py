@@ -171,7 +171,7 @@ def install_stages(board, f):
     else:
         probe(f.mahony, "update", "mahony (math)", 5)
     probe(f.rc, "update", "rc.update", 1)
-    probe(f, "command", "flight.command", 1)
+    probe(f.commander, "update", "commander.update", 2)
     if f._fixed_on:  # pid_math: the controller and mixer as one fixed-point pass (MicroPython)
         probe(f.fixed, "update", "fixed: controller + mixer", 5)
     else:

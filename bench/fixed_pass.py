@@ -84,8 +84,8 @@ def main():
     att = s.attitude
     fixed = f.fixed
     imu = f.fixed_imu
-    i_active = f.i_active
-    airmode = f.airmode_active
+    i_active = f.commander.i_active
+    airmode = f.commander.airmode_active
 
     if count:
         collect_garbage()

@@ -26,7 +26,8 @@ SRC = os.path.join(ROOT, "src")
 LIMIT_WORDS = 11
 MODULES = ("drivers/orientation", "drivers/imu", "drivers/mpu6050", "core/params", "core/events", "core/filters",
            "core/fixedimu", "core/control", "core/estimator", "core/mixer", "core/pid", "core/fixedrate",
-           "core/arming", "core/failsafe", "core/rc", "core/scheduler", "core/signals", "core/output",
+           "core/arming", "core/failsafe", "core/rc", "core/commander", "core/supervisor", "core/scheduler",
+           "core/signals", "core/output",
            "core/receiver", "core/logger", "core/flight", "core/motortest", "protocols/crsf", "protocols/dshot")
 PASSES = 300
 

@@ -34,7 +34,8 @@ if sys.implementation.name == "micropython":
     import gc
 
     for _name in ("params", "events", "filters", "control", "estimator", "mixer", "arming", "failsafe",
-                  "rc", "scheduler", "signals", "output", "receiver", "logger", "flight"):
+                  "rc", "scheduler", "signals", "output", "receiver", "logger", "commander", "supervisor",
+                  "flight"):
         gc.collect()
         try:
             __import__("hoverfly.core." + _name)

@@ -128,7 +128,7 @@ def test_failsafe_switch_with_no_channel_does_nothing():
 
 
 class AirmodeTrace:
-    """flight.airmode_active and i_active each pass after a time, as (t_s, airmode, i_term)."""
+    """flight.commander.airmode_active and i_active each pass after a time, as (t_s, airmode, i_term)."""
 
     def __init__(self, run, after_s):
         self.after_s = after_s
@@ -139,7 +139,7 @@ class AirmodeTrace:
         t = run.board.sim_us * 1e-6
         if t >= self.after_s:
             f = run.flight
-            self.rows.append((t, f.airmode_active, f.i_active))
+            self.rows.append((t, f.commander.airmode_active, f.commander.i_active))
 
 
 def _airmode_run(params, events):

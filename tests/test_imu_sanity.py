@@ -118,7 +118,7 @@ def test_on_the_ground_a_bad_imu_refuses_arming_with_nogyro_and_motors_stay_stil
     assert not r["armed"] and not _events(r, "armed")
     blocked = _events(r, "arming_blocked")
     assert blocked and blocked[0]["detail"].startswith("NOGYRO:"), r["events"]
-    assert f.arming.flags & (1 << NO_GYRO) and not f.imu_ok
+    assert f.arming.flags & (1 << NO_GYRO) and not f.supervisor.imu_ok
     assert "imu" in f.bit.names()
     assert max(spun) == 0.0 and r["altitude_m"]["max"] < 0.01
     if name == "nan_gyro":
@@ -169,7 +169,7 @@ def test_after_a_nan_spell_on_the_ground_the_stages_start_clean_and_the_hover_fl
 
     def hook(r):
         f = r.flight
-        if not f.imu_ok:
+        if not f.supervisor.imu_ok:
             seen["fault"] = True
         elif seen["fault"] and seen["clean_at"] is None:
             seen["clean_at"] = r.board.sim_us * 1e-6

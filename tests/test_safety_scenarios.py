@@ -120,12 +120,12 @@ _CONDITIONS = {
     "LOAD": lambda r: setattr(r.flight.faults, "_period_us", 10),  # the loop "should" run at 100 kHz
     "RXLOSS": lambda r: setattr(r.flight, "rx_ok", False),
     "THROTTLE": lambda r: setattr(r.pilot, "throttle", 0.5),
-    "BATTERY": lambda r: setattr(r.flight, "_vbat_min_cell_v", 4.3),
+    "BATTERY": lambda r: setattr(r.flight.supervisor, "_vbat_min_cell_v", 4.3),
     "ANGLE": lambda r: setattr(r.flight.arming, "small_angle_cos", 1.01),
     "CALIB": lambda r: r.flight.calibration.reset(),
     "AUTOPILOT": lambda r: r.pilot.overrides_us.__setitem__(6, 2000),
     "FAILSAFE": lambda r: setattr(r.flight.failsafe, "state", 1) or setattr(r.flight.failsafe, "update", _noop),
-    "CRASH": lambda r: setattr(r.flight, "_crash_latched", True) or setattr(r.flight.rc, "arm_switch", True),
+    "CRASH": lambda r: setattr(r.flight.supervisor, "_crash_latched", True) or setattr(r.flight.rc, "arm_switch", True),
 }
 
 
@@ -221,12 +221,13 @@ def test_silent_autopilot_hands_back_to_the_pilot_and_arm_switch_off_disarms(aut
 
 
 @pytest.mark.parametrize("scenario", ["autopilot", "rx-loss", "rx-restore"])
-def test_commands_short_way_always_agrees_with_who_flies(scenario):
-    # Flight.command takes the pilot's sticks without looking further while _pilot_only holds; it is set
-    # wherever the failsafe or the autopilot change (the 100 Hz task, pilot frames, the autopilot's pass).
-    # At the end of every pass it must say what the failsafe and autopilot states say, through a whole
+def test_who_flies_word_always_agrees_with_the_failsafe_and_autopilot_states(scenario):
+    # The commander flies the pilot's sticks without looking further while its source word is 0; the failsafe
+    # writes its bit at each change of stage, the commander the autopilot's after each call that can change it.
+    # At the end of every pass the word must say what the failsafe and autopilot states say, through a whole
     # scenario of autopilot enabling, overrides, latches, silence, link loss and restore.
     from hoverfly.core.autopilot import AP_ENABLED
+    from hoverfly.core.commander import SOURCE_AUTOPILOT, SOURCE_FAILSAFE
     from hoverfly.core.failsafe import IDLE
 
     run = SimRun("5inch", scenario, seed=3)
@@ -235,10 +236,14 @@ def test_commands_short_way_always_agrees_with_who_flies(scenario):
     def hook(r):
         f = r.flight
         ap = f.autopilot
-        truth = f.failsafe.state == IDLE and ap.state != AP_ENABLED and ap.latch_norm < 0.0
-        assert f._pilot_only == truth, (r.board.sim_us, f.failsafe.state, ap.state, ap.latch_norm)
+        truth = 0
+        if f.failsafe.state != IDLE:
+            truth |= SOURCE_FAILSAFE
+        if ap.state == AP_ENABLED or ap.latch_norm >= 0.0:
+            truth |= SOURCE_AUTOPILOT
+        assert f.commander.source == truth, (r.board.sim_us, f.failsafe.state, ap.state, ap.latch_norm)
         seen.add(truth)
 
     run.on_step = hook
     run.run()
-    assert seen == {True, False}  # both ways were taken
+    assert 0 in seen and len(seen) > 1  # the pilot alone, and some other source, both flew

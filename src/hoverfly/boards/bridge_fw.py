@@ -240,7 +240,7 @@ class Firmware:
             flags |= B.OUT_ARMED
         if self.board.led:
             flags |= B.OUT_LED
-        if flight.imu_ok:
+        if flight.supervisor.imu_ok:
             flags |= B.OUT_IMU_OK
         if flight.rx_ok:
             flags |= B.OUT_RX_OK

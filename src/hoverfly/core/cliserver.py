@@ -304,8 +304,9 @@ class CliServer:
                    % (f.loop_hz, sch.stats[PS_CYCLE], sch.stats[PS_CYCLE_MAX], f.pass_us, sch.stats[PS_JITTER_MAX],
                       sch.overruns))
         cal = f.calibration.calibrated
+        imu_ok = f.supervisor.imu_ok
         out.append("Sensors: gyro %s, calibration %s; estimator %s"
-                   % ("ok" if f.imu_ok else "FAULT", "done" if cal else "running", f.params.get("estimator")))
+                   % ("ok" if imu_ok else "FAULT", "done" if cal else "running", f.params.get("estimator")))
         rx = getattr(f, "receiver", None)
         if rx is not None:
             out.append("Link: %s, %s frames, %s errors, %s Hz, LQ %s %%, RSSI %s dBm"

@@ -90,6 +90,7 @@ class Failsafe:
         self.land_throttle_norm = 0.3
         self._peak_sq = 0.0
         self._learn_dt_s = -1.0  # observe: the dt of a call whose learning waits for the next (-1.0: none)
+        self.commander = None  # told at each change of stage who flies (Commander.failsafe_flies), when wired
 
     def configure(self, params):
         self.procedure = PROCEDURES.index(params.get("fs_procedure"))
@@ -174,31 +175,26 @@ class Failsafe:
         stage 2 (the failsafe switch in stage2 mode)."""
         if not armed:
             if self.state != IDLE:
-                self.state = IDLE
-                self.events.record(now_us, EV_FAILSAFE_END, 0)
+                self._stage(now_us, IDLE, EV_FAILSAFE_END, 0)
             self._peak_sq = 0.0
             return
         if self.state == IDLE:
             if link_lost:
-                self.state = STAGE1
                 self.stage_since_us = last_frame_us
-                self.events.record(now_us, EV_FAILSAFE_STAGE1, cause)
+                self._stage(now_us, STAGE1, EV_FAILSAFE_STAGE1, cause)
         if self.state == STAGE1:
             if not link_lost:
-                self.state = IDLE
-                self.events.record(now_us, EV_FAILSAFE_END, 0)
+                self._stage(now_us, IDLE, EV_FAILSAFE_END, 0)
             elif skip_stage1 or ticks_diff(now_us, self.stage_since_us) >= self.rx_timeout_us + self.delay_us:
-                self.state = STAGE2
                 self.stage_since_us = now_us
                 self._peak_sq = 0.0
-                self.events.record(now_us, EV_FAILSAFE_STAGE2, self.procedure)
+                self._stage(now_us, STAGE2, EV_FAILSAFE_STAGE2, self.procedure)
                 if self.procedure == PROC_DROP:
                     arming.disarm(now_us, DISARM_FAILSAFE)
                     return
         if self.state == STAGE2:
             if not link_lost and sticks_moved:
-                self.state = IDLE
-                self.events.record(now_us, EV_FAILSAFE_END, 1)
+                self._stage(now_us, IDLE, EV_FAILSAFE_END, 1)
                 return
             if self.procedure == PROC_LAND:
                 since = ticks_diff(now_us, self.stage_since_us)
@@ -208,6 +204,14 @@ class Failsafe:
                     self.events.record(now_us, EV_LANDED, 0)
                 if landed or since >= self.land_max_us:
                     arming.disarm(now_us, DISARM_LANDED if landed else DISARM_FAILSAFE)
+
+    def _stage(self, now_us, state, event, detail):
+        """A change of stage: its event, and who flies (SAFETY: the commander flies the failsafe's set
+        point from the next pass, exactly while a stage runs)."""
+        self.state = state
+        self.events.record(now_us, event, detail)
+        if self.commander is not None:
+            self.commander.failsafe_flies(state != IDLE)
 
 
 # FaultWatch verdicts (what Flight disarms for).
@@ -248,7 +252,7 @@ class FaultWatch:
         self.same_checks = 0
         self.sat_checks = 0
         self.imu_fault = FAULT_NONE
-        self.fault_before = FAULT_NONE  # the flight's IMU verdict at its last check (Flight.task_arming)
+        self.fault_before = FAULT_NONE  # the flight's IMU verdict at its last check (Supervisor.task)
         self.crash_since_us = None
         self.overloaded = False
         self.storm_since_us = None

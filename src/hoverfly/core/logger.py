@@ -577,9 +577,9 @@ class Logger:
             i = self._staged
             rec = self._rec
             if rec is not None:
-                i_active = f.i_active
+                i_active = f.commander.i_active
                 struct.pack_into(_SCALARS, rec, self._at_thrust, -sp.throttle_norm, not i_active, self._pid_header, t,
-                                 c.tpa, i_active, f.airmode_active, mixer.saturated, sp.mode)
+                                 c.tpa, i_active, f.commander.airmode_active, mixer.saturated, sp.mode)
                 if (f.imu_us == now_us) is not self._imu_fresh:
                     self._imu_fresh = not self._imu_fresh
                     self._record_constants()
@@ -682,6 +682,7 @@ class Logger:
         the sample is fresh again."""
         lg = self
         f = self.flight
+        cm = f.commander  # i_active, airmode_active
         sp, c, mixer, rc, _ = self._ctx
         stage = self._stage
         buf = self._rec
@@ -697,9 +698,9 @@ class Logger:
             nonlocal t, i
             try:  # SAFETY: as update()'s: the log ends, the pass goes on
                 t += f.pass_dt_us
-                i_active = f.i_active
+                i_active = cm.i_active
                 _pack_into(_SCALARS, buf, at_thrust, -sp.throttle_norm, not i_active, pid_header, t, c.tpa,
-                           i_active, f.airmode_active, mixer.saturated, sp.mode)
+                           i_active, cm.airmode_active, mixer.saturated, sp.mode)
                 stage[slots[i]] = buf
                 i += 1
                 if i >= batch_n:
@@ -777,7 +778,7 @@ class Logger:
         q, g, mo, gr, ar, rs, tq, pt = self._srcs
         raw = self._rawf
         dt_us = self._dt_us if f.imu_us == now_us else 0
-        i_active = f.i_active
+        i_active = f.commander.i_active
         struct.pack_into(
             self._fmt, self._stage, off,
             h0, t, raw(q),
@@ -785,7 +786,7 @@ class Logger:
             h2, t, f.motor_count, raw(mo),
             h3, t, raw(gr), dt_us, raw(ar), dt_us,
             h4, t, raw(rs), -sp.throttle_norm, 0 if i_active else 1,
-            h5, t, c.tpa, 1 if i_active else 0, 1 if f.airmode_active else 0, 1 if mixer.saturated else 0,
+            h5, t, c.tpa, 1 if i_active else 0, 1 if f.commander.airmode_active else 0, 1 if mixer.saturated else 0,
             sp.mode, raw(tq), raw(pt),
         )
 
@@ -955,7 +956,7 @@ class Logger:
             h0, t, s.battery_v, s.current_a, getattr(s, "mah_drawn", 0.0), -1.0, s.battery_v > 0.5,
             h1, t, self._armed_t64, _ARMING_ARMED if armed else _ARMING_STANDBY,
             _NAV_STATES[mode] if 0 <= mode < 3 else 0, fs_state != 0, not f.rx_ok,
-            _clamp_int(mode, 0, 255), _clamp_int(fs_state, 0, 255), f.imu_ok, f.calibration.calibrated,
+            _clamp_int(mode, 0, 255), _clamp_int(fs_state, 0, 255), f.supervisor.imu_ok, f.calibration.calibrated,
             h2, t, _clamp_int(sc.stats[PS_PASSES], 0, _U32_MAX), _clamp_int(sc.stats[PS_CYCLE], 0, _U32_MAX),
             _clamp_int(sc.stats[PS_CYCLE_MAX], 0, _U32_MAX), _clamp_int(sc.stats[PS_JITTER_MAX], 0, _U32_MAX),
             _clamp_int(sc.overruns, 0, _U32_MAX), _clamp_int(self.frames, 0, _U32_MAX),

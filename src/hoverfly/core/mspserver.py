@@ -307,7 +307,7 @@ class MspServer(ParsedRequests):
             modes |= 2
         elif m == MODE_HORIZON:
             modes |= 4
-        if f.airmode_enabled:  # the AIRMODE box: the switch when one is set, else the parameter
+        if f.commander.airmode_enabled:  # the AIRMODE box: the switch when one is set, else the parameter
             modes |= 8
         if f.failsafe.state != IDLE:
             modes |= 16
@@ -402,16 +402,7 @@ class MspServer(ParsedRequests):
         ap = getattr(f, "autopilot", None)
         if ap is None:
             return self._refuse("this firmware has no autopilot link")
-        if f.failsafe.state != IDLE:
-            flier = 3  # the receiver failsafe outranks the autopilot
-        elif getattr(getattr(f, "motor_test", None), "active", False):
-            flier = 4
-        elif not f.arming.armed:
-            flier = 0
-        elif ap.in_control():
-            flier = 2
-        else:
-            flier = 1
+        flier = f.commander.flier(f.motor_test.active)  # who flies (FLIER_NAMES)
         latched = ap.latch_norm >= 0.0
         latch = ap.latch_cause if latched else 0
         soft = ap.soft if ap.state == AP_ENABLED else 0

@@ -469,7 +469,7 @@ class RcInput:
                 pass
 
     def hold_heading(self, armed, yaw_rad):
-        """Heading hold, at 100 Hz (Flight.task_arming; seed 001 holds yaw at its zero): with the yaw stick
+        """Heading hold, at 100 Hz (Commander.task; seed 001 holds yaw at its zero): with the yaw stick
         centred (in its deadband) the yaw rate setpoint steers back to the heading the stick was centred at,
         yaw_hold_p rad/s per radian of error, capped at the stick's full rate. Disarmed, or with the stick
         off centre, nothing is held: arming, or centring the stick, takes the heading of that moment."""
