@@ -258,9 +258,17 @@ def check_plane(data, where):
     for surface, spec in servos.items():
         if surface not in SURFACES:
             raise _unknown(where + " [servos]", surface, tuple(SURFACES))
-        if not isinstance(spec, dict) or set(spec) - {"servo", "direction"} or "servo" not in spec:
-            raise UserError("%s [servos]: %s must be { servo = 0..%d, direction = 1 or -1 }"
-                            % (where, surface, _SERVO_OUTPUTS - 1))
+        if not isinstance(spec, dict) or set(spec) - {"servo", "direction", "min_us", "mid_us", "max_us"} \
+                or "servo" not in spec:
+            raise UserError("%s [servos]: %s must be { servo = 0..%d, direction = 1 or -1, and optionally the "
+                            "servo's own end points min_us, mid_us, max_us }" % (where, surface, _SERVO_OUTPUTS - 1))
+        ends = []
+        for k, default in (("min_us", 1000), ("mid_us", 1500), ("max_us", 2000)):
+            spec[k] = _number("%s [servos] %s" % (where, surface), k, spec.get(k, default), (500.0, 2500.0, True))
+            ends.append(spec[k])
+        if not ends[0] < ends[1] < ends[2]:
+            raise UserError("%s [servos]: %s end points must be min_us < mid_us < max_us, not %g / %g / %g"
+                            % (where, surface, ends[0], ends[1], ends[2]))
         n = spec["servo"]
         if isinstance(n, bool) or not isinstance(n, int) or not 0 <= n < _SERVO_OUTPUTS:
             raise UserError("%s [servos]: %s drives servo %s, which does not exist (servos 0..%d)"

@@ -100,6 +100,15 @@ def load_fdm(airframe, dt_s):
     return fdm
 
 
+def plane_servos(airframe):
+    """The simulated servos of a plane, each with its own end points from the airframe's wiring
+    (for the sim board's servo outputs: index -> sim/esc.SimServo)."""
+    from hoverfly.sim.esc import SimServo
+
+    return {spec["servo"]: SimServo(spec["min_us"], spec["mid_us"], spec["max_us"])
+            for spec in airframe["servos"].values()}
+
+
 class Plane:
     """One JSBSim aircraft in lockstep: step(dt, motor_cmd) advances one loop period."""
 
@@ -231,6 +240,8 @@ class Plane:
         self.fz = az * FT
         self.roll_rad = phi
         self.pitch_rad = theta
+        if psi > math.pi:  # JSBSim's heading runs 0..2 pi; the quad physics' yaw -pi..pi
+            psi -= 2.0 * math.pi
         self.yaw_rad = psi
         cr = math.cos(phi * 0.5)
         sr = math.sin(phi * 0.5)
@@ -275,3 +286,107 @@ class Plane:
 
     def altitude_m(self):
         return -self.pd
+
+
+# ---------------------------------------------------------------------- model figures
+# Open-loop measurements of a model's flying qualities (bench/plane_model.py, tests): the figures a
+# pilot knows a plane by, measured in the same JSBSim flight the simulator flies.
+
+def _surfaces(plane, aileron=0.0, elevator=0.0, rudder=0.0):
+    """Servo positions that command these JSBSim-signed surface values (the wiring inverted)."""
+    pos = plane.servo_pos
+    for i in range(len(pos)):
+        pos[i] = 0.0
+    want = (aileron, elevator, rudder)
+    for servo, ka, ke, kr in plane.wiring:
+        # the wiring's columns are orthogonal (one surface each, or an elevon/ruddervator pair),
+        # so each servo is the wanted command projected onto its own column
+        n = ka * ka + ke * ke + kr * kr
+        pos[servo] = (ka * want[0] + ke * want[1] + kr * want[2]) / n
+
+
+def glide(plane, elevator=0.0, seconds=40.0, settle_s=20.0, altitude_m=300.0, airspeed_m_s=12.0):
+    """Motor off, wings held level by nothing but the model's own stability: mean airspeed and the
+    glide ratio (distance over height lost) once the phugoid has died down."""
+    plane.reset(altitude_m=altitude_m, airspeed_m_s=airspeed_m_s)
+    _surfaces(plane, elevator=elevator)
+    dt = plane.dt_s
+    n = int(settle_s / dt)
+    for _ in range(n):
+        plane.step(dt, (0.0,))
+    n0, e0, h0 = plane.pn, plane.pe, plane.altitude_m()
+    speed = 0.0
+    m = int((seconds - settle_s) / dt)
+    for _ in range(m):
+        plane.step(dt, (0.0,))
+        speed += plane.airspeed_m_s
+    dist = math.hypot(plane.pn - n0, plane.pe - e0)
+    lost = h0 - plane.altitude_m()
+    return {"airspeed_m_s": speed / m, "glide_ratio": dist / lost if lost > 0 else float("inf"),
+            "sink_m_s": lost / (seconds - settle_s), "bank_deg": math.degrees(plane.roll_rad)}
+
+
+def stall(plane, airspeed_m_s=12.0, ramp_s=8.0):
+    """A power-off stall as a pilot flies one: wings level, the elevator eased back until the wing
+    quits. Measures the highest lift coefficient reached (JSBSim's lift force over qS) and the 1 g
+    stall speed it gives, sqrt(2 m g / (rho S CLmax)), plus the lowest airspeed seen."""
+    plane.reset(altitude_m=300.0, airspeed_m_s=airspeed_m_s)
+    fdm = plane.fdm
+    s_m2 = fdm["metrics/Sw-sqft"] * FT * FT
+    dt = plane.dt_s
+    cl_max = 0.0
+    v_min = 1e9
+    alpha_at = 0.0
+    n = int(ramp_s / dt)
+    for k in range(n):
+        _surfaces(plane, elevator=-k / n)  # pitch up: negative elevator-cmd
+        plane.step(dt, (0.0,))
+        qbar_pa = fdm["aero/qbar-psf"] * LBF_N / (FT * FT)
+        if qbar_pa > 1.0:
+            cl = fdm["forces/fwz-aero-lbs"] * LBF_N / (qbar_pa * s_m2)  # JSBSim: +fwz is lift
+            if cl > cl_max:
+                cl_max = cl
+                alpha_at = plane.alpha_rad
+        if plane.airspeed_m_s < v_min:
+            v_min = plane.airspeed_m_s
+    rho = fdm["atmosphere/rho-slugs_ft3"] * 515.378818
+    return {"cl_max": cl_max, "alpha_deg": math.degrees(alpha_at), "min_airspeed_m_s": v_min,
+            "stall_speed_m_s": math.sqrt(2.0 * plane.mass_kg * G_M_S2 / (rho * s_m2 * cl_max))}
+
+
+def roll_rate(plane, airspeed_m_s, seconds=1.0, direction=1.0):
+    """Full aileron from wings level at airspeed: the roll rate once the roll mode has settled
+    (0.3 s in; what a pilot calls the plane's roll rate), the highest rate within `seconds` (it
+    grows a little as the nose drops and the plane speeds up) and the bank reached at 0.3 s."""
+    plane.reset(altitude_m=300.0, airspeed_m_s=airspeed_m_s)
+    _surfaces(plane, aileron=direction)
+    dt = plane.dt_s
+    best = 0.0
+    at = None
+    n_settled = int(0.3 / dt)
+    for k in range(int(seconds / dt)):
+        plane.step(dt, (0.0,))
+        if k == n_settled:
+            at = (plane.p, plane.roll_rad)
+        if abs(plane.p) > abs(best):
+            best = plane.p
+    return {"roll_rate_dps": math.degrees(at[0]), "peak_roll_rate_dps": math.degrees(best),
+            "bank_at_0_3_s_deg": math.degrees(at[1]), "airspeed_m_s": airspeed_m_s}
+
+
+def level_flight(plane, airspeed_m_s, throttle, seconds=10.0):
+    """Elevator centred at a throttle: the speed, climb rate and bank the plane settles to."""
+    plane.reset(altitude_m=300.0, airspeed_m_s=airspeed_m_s)
+    _surfaces(plane)
+    dt = plane.dt_s
+    h0 = None
+    speed = 0.0
+    n = int(seconds / dt)
+    for k in range(n):
+        plane.step(dt, (throttle,))
+        if k == n // 2:
+            h0 = plane.altitude_m()
+        if k >= n // 2:
+            speed += plane.airspeed_m_s
+    return {"airspeed_m_s": speed / (n - n // 2), "climb_m_s": (plane.altitude_m() - h0) / (seconds / 2),
+            "bank_deg": math.degrees(plane.roll_rad), "pitch_deg": math.degrees(plane.pitch_rad)}
