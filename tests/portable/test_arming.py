@@ -2,6 +2,7 @@
 
 from array import array
 
+from hoverfly.compat import ticks_add
 from hoverfly.core.arming import (
     ARM_SWITCH,
     CLI,
@@ -67,6 +68,20 @@ def test_each_check_input_raises_its_reason_and_blocks_the_switch():
         a.on_switch(2000, True)
         assert not a.armed
         assert a.events.event[0] == 2 and a.events.detail[0] == reason_bit(name)
+
+
+def test_a_craft_left_on_for_twenty_minutes_is_not_still_booting():
+    # given the boot grace, when the arming task checks every 10 ms for 20 minutes, then BOOTGRACE holds only for
+    # the grace: the tick clock wraps every 2**30 us (about 18 minutes), so the time since boot reads negative from
+    # about 9 minutes on and small again at 18; neither may bring "still booting" back
+    a = _arming(boot_grace_ms=1000)
+    boot = ticks_add(0, -3000000)  # boot 3 s before the clock's wrap, as a CPython run starts its clock
+    a.boot_us = boot
+    booting_until_ms = -1
+    for ms in range(0, 20 * 60 * 1000, 10):
+        if (1 << reason_bit("BOOTGRACE")) & _ok(a, now_us=ticks_add(boot, ms * 1000)):
+            booting_until_ms = ms
+    assert booting_until_ms == 990
 
 
 def test_sessions_map_to_cli_msp_and_maintenance():

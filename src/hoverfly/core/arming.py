@@ -160,6 +160,7 @@ class Arming:
         self.disarm_frames_needed = 5
         self.small_angle_cos = 0.906
         self.boot_grace_us = 0
+        self.booting = True  # until boot_grace_us has passed once (see check)
         self.source = ARM_SOURCES[0]
 
     def configure(self, params):
@@ -197,8 +198,13 @@ class Arming:
             f |= 1 << ANGLE
         if overloaded:
             f |= 1 << LOAD
-        if ticks_diff(now_us, self.boot_us) < self.boot_grace_us:
-            f |= 1 << BOOT_GRACE_TIME
+        if self.booting:
+            # Latched over once passed: the tick clock wraps every 2**30 us, so after about 9 minutes the time
+            # since boot would read negative again, and a craft left on that long would be "still booting".
+            if ticks_diff(now_us, self.boot_us) < self.boot_grace_us:
+                f |= 1 << BOOT_GRACE_TIME
+            else:
+                self.booting = False
         if self._need_toggle and self._switch_was_on:
             f |= 1 << ARM_SWITCH
         self.flags = f

@@ -566,7 +566,8 @@ class BridgedFlight:
         if not self._open:
             return "the firmware bridge is not running"
         self.msp_rc_frames += 1
-        self._send(B.put_msp_rc(self._buf, ticks_diff(now_us, self._boot_us), channels_us, count))
+        sim_us = self.board.sim_us + ticks_diff(now_us, self.board.now_us())  # not from boot: that wraps at 9 min
+        self._send(B.put_msp_rc(self._buf, sim_us, channels_us, count))
         if self._receive(B.MSP_RC, self.transport.step_timeout_s) != B.RC_ANSWER:
             self._fail("expected an RC_ANSWER frame to %s" % self._what(B.MSP_RC))
         dec = self._dec

@@ -102,6 +102,10 @@ class SimRun:
             raise UserError("airframe %s is a plane (mixer_type %s): the fixed-wing flight core is not built yet "
                             "(issue 23); its physics is in sim/plane.py"
                             % (self.airframe["name"], self.airframe["frame"]))
+        if self.airframe.get("kind") != "plane" and (self.scenario.get("start")
+                                                     or any("throw" in e for e in self.scenario["events"])):
+            raise UserError("scenario %s is flown by a plane (a hand launch or a start in flight): "
+                            "fly it with --airframe trainer or wing" % self.scenario["name"])
         self.params = build_params(self.airframe, self.scenario, overrides)
         # The simulated transmitter speaks `rx`; the flight controller is set up to match.
         err = self.params.set("rx_provider", rx)
@@ -217,7 +221,7 @@ class SimRun:
         flips = []
         flip = None
         next_ev_t = events[0]["t"] if events else math.inf
-        on_event = lambda tu, e, d: self._event(boot, tu, e, d)  # noqa: E731
+        on_event = self._event
         sqrt = math.sqrt
         cos = math.cos
         acos = math.acos
@@ -252,7 +256,7 @@ class SimRun:
                 self.companion.tick(t, board.now_us(), v)
             if board.output_tick() != output_fs:  # the board's output timer: the output failsafe's watchdog
                 output_fs = not output_fs
-                self._output_event(boot, output_fs)
+                self._output_event(output_fs)
             v.servo_cmd = servo_cmd[0]
             v.step(dt, motor_cmd)
             board.sim_us += period_us
@@ -377,14 +381,14 @@ class SimRun:
         }
 
     # ---------------------------------------------------------------- helpers
-    def _output_event(self, boot, tripped):
+    def _output_event(self, tripped):
         out = self.board.output
         if tripped and out.failsafe_trips:
-            self.events_out.append({"t_s": round(ticks_diff(out.failsafe_at_us, boot) * 1e-6, 4),
+            self.events_out.append({"t_s": round(self._sim_s(out.failsafe_at_us), 4),
                                     "event": "output_failsafe", "detail": "no command for %d ms: outputs disarmed"
                                     % (out.timeout_us // 1000)})
         elif not tripped:
-            self.events_out.append({"t_s": round(ticks_diff(self.board.now_us(), boot) * 1e-6, 4),
+            self.events_out.append({"t_s": round(self.board.sim_us * 1e-6, 4),
                                     "event": "output_failsafe", "detail": "commands resumed"})
 
     def _outputs_report(self):
@@ -397,8 +401,14 @@ class SimRun:
             r["rpm"] = [self.flight.signals.motor_rpm[i] for i in range(b.motor_count)]
         return r
 
-    def _event(self, boot, t_us, event, detail):
-        t_s = ticks_diff(t_us, boot) * 1e-6
+    def _sim_s(self, t_us):
+        """A board tick time in seconds of simulated time: by its age, since a tick difference from boot wraps
+        after 2**29 us (about 9 minutes of flight)."""
+        b = self.board
+        return (b.sim_us - ticks_diff(b.now_us(), t_us)) * 1e-6
+
+    def _event(self, t_us, event, detail):
+        t_s = self._sim_s(t_us)
         name = EVENT_NAMES[event] if 0 <= event < len(EVENT_NAMES) else "event%d" % event
         if event == EV_MODE:
             text = MODE_NAMES[detail] if 0 <= detail < len(MODE_NAMES) else str(detail)

@@ -189,6 +189,7 @@ class Rp2Board(Board):
         self._adc_a = None
         self._led = None
         self._boot_us = 0
+        self._rx_watch = False  # the receiver checks start RX_SILENT_MS after boot (latched: ticks wrap)
         self._printed_faults = -1
         self.print_status = True
         # Ctrl-C on USB (see the module docstring)
@@ -607,10 +608,13 @@ class Rp2Board(Board):
 
     def _health(self):
         now = self._ticks_us()
-        since_boot_ms = ticks_diff(now, self._boot_us) // 1000
+        if not self._rx_watch:
+            # Latched once on: the tick clock wraps every 2**30 us, and the time since boot would read small
+            # again every 18 minutes.
+            self._rx_watch = ticks_diff(now, self._boot_us) > RX_SILENT_MS * 1000
         flight = self.flight
         receiver = getattr(flight, "receiver", None)
-        if self.rx_ok_type and receiver is not None and since_boot_ms > RX_SILENT_MS:
+        if self.rx_ok_type and receiver is not None and self._rx_watch:
             got = self.rx_counts[0] + self.rx_edges
             frames = receiver.frames
             f = self.faults & ~(FAULT_RX_SILENT | FAULT_RX_GARBAGE)
@@ -641,7 +645,8 @@ class Rp2Board(Board):
         f = self.flight
         if f is not None and (f.arming.armed or f.config_session):
             return
-        if ticks_diff(now, self._usb_last_us) < USB_IDLE_MS * 1000:
+        # A negative difference is a last byte more than half the tick period (about 9 minutes) ago: quiet.
+        if 0 <= ticks_diff(now, self._usb_last_us) < USB_IDLE_MS * 1000:
             return
         self._set_ctrl_c(True)
 
