@@ -292,3 +292,102 @@ def test_fly_with_a_plane_says_in_one_line_that_the_fixed_wing_core_is_not_built
     assert rc != 0
     assert "fixed-wing flight core is not built yet" in err
     assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+
+
+# --------------------------------------------------------------------------- scenarios and judging
+PLANE_SCENARIOS = ("launch", "bank-steps", "pitch-steps", "box", "glide", "wind")
+
+
+@pytest.mark.parametrize("name", PLANE_SCENARIOS)
+def test_the_plane_scenarios_load_and_are_refused_on_a_quad_in_one_line(name):
+    from hoverfly.sim.runner import SimRun
+    from hoverfly.sim.scenario import load_scenario
+
+    sc = load_scenario(name)
+    assert sc["airframe"] == "trainer"
+    assert sc["start"] or any("throw" in e for e in sc["events"])
+    with pytest.raises(UserError) as e:
+        SimRun("5inch", sc)
+    assert "flown by a plane" in str(e.value) and "\n" not in str(e.value)
+
+
+def test_the_bank_steps_are_30_degree_angle_steps_in_the_quads_step_format():
+    from hoverfly.sim.scenario import load_scenario
+
+    steps = [e["step"] for e in load_scenario("bank-steps")["events"] if "step" in e]
+    assert [s["to"] for s in steps] == [30, 0, -30, 0]
+    assert all(s["axis"] == "roll" and s["unit"] == "deg" for s in steps)
+
+
+@pytest.mark.parametrize("text, says", [
+    ('[[at]]\nt = 1\nthrow = { speed = 3 }\n', "throw has no field 'speed'"),
+    ('[[at]]\nt = 1\nthrow = false\n', "throw must be true or a table"),
+    ('[[at]]\nt = 1\nthrow = { duration_s = 5 }\n', "throw.duration_s"),
+    ('[start]\naltitude_m = -5\n', "altitude_m = -5 is out of range"),
+    ('[start]\nairspeed = 13\n', "unknown key 'airspeed'"),
+])
+def test_a_bad_plane_scenario_is_one_clear_line(text, says):
+    from hoverfly.sim.scenario import parse_scenario
+
+    with pytest.raises(UserError) as e:
+        parse_scenario('name = "x"\nduration_s = 5\n' + text)
+    assert says in str(e.value) and "\n" not in str(e.value)
+
+
+def test_a_hand_launch_throws_the_plane_and_lets_go():
+    plane = P.Plane(load_airframe("wing"), 1000)
+    plane.reset()
+    _fly(plane, 0.5)
+    throw = P.HandLaunch(plane)
+    throw.start(0.0)
+    k = 0
+    pushing = []
+    while k < 1000:
+        k += 1
+        pushing.append(throw.tick(k * plane.dt_s))
+        plane.step(plane.dt_s, (0.8,))
+    assert pushing.count(True) == pytest.approx(300, abs=2)  # 0.3 s of push, then the hand is gone
+    assert plane.hand_forward_n == 0.0 and plane.hand_up_n == 0.0
+    assert not plane.on_ground and plane.airspeed_m_s > 9.0
+
+
+def test_the_judge_reports_airspeed_bank_and_a_stall_as_a_pilot_sees_them():
+    plane = P.Plane(load_airframe("trainer"), 1000)
+    judge = P.PlaneJudge(plane.airframe["stall_speed_m_s"])
+    plane.reset(altitude_m=150.0, airspeed_m_s=13.0)
+    for k in range(3000):  # cruise, then a 45 degree bank
+        plane.servo_pos[0] = 0.5 if 1000 <= k < 1300 else 0.0
+        plane.step(plane.dt_s, (0.2,))
+        judge.add(k * plane.dt_s, plane)
+    r = judge.result()
+    assert r["stalls"] == [] and r["spins"] == []
+    assert 10.0 < r["airspeed_m_s"]["min"] <= r["airspeed_m_s"]["mean"] <= r["airspeed_m_s"]["max"] < 20.0
+    assert 20.0 < r["max_bank_deg"] < 120.0
+    for k in range(3000, 9000):  # full up elevator, power off: the wing stalls
+        plane.servo_pos[1] = 1.0
+        plane.step(plane.dt_s, (0.0,))
+        judge.add(k * plane.dt_s, plane)
+    assert len(judge.result()["stalls"]) >= 1
+    assert judge.result()["airspeed_m_s"]["min"] < plane.airframe["stall_speed_m_s"]
+
+
+class _State:
+    on_ground = False
+    roll_rad = 0.3
+    pd = -50.0
+
+
+def test_the_judge_calls_a_stalled_autorotation_a_spin_but_not_a_fast_turn():
+    judge = P.PlaneJudge(7.5)
+    s = _State()
+    for k in range(3000):  # a fast turn at speed: no spin
+        s.airspeed_m_s, s.r = 14.0, 1.5
+        judge.add(k * 0.001, s)
+    assert judge.result()["spins"] == [] and judge.result()["stalls"] == []
+    for k in range(3000, 5000):  # slow and yawing hard for 2 s: a spin
+        s.airspeed_m_s, s.r = 5.0, 2.0
+        judge.add(k * 0.001, s)
+    r = judge.result()
+    assert r["stalls"] == [3.0] and r["spins"] == [3.2]  # a spin is counted from the stall on
+    judge.add(5.0, type("Landed", (), {"on_ground": True})())
+    assert judge.result()["airspeed_m_s"]["min"] == 5.0

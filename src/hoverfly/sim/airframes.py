@@ -293,7 +293,11 @@ def check_plane(data, where):
         # a plane mixer the flight core does not know yet is refused when it flies (sim/runner.py)
         if err and not (name == "mixer_type" and value in PLANE_MIXERS):
             raise UserError("%s [params]: %s" % (where, err))
-    data["frame"] = params.get("mixer_type", "airplane")
+    frame = params.get("mixer_type", "airplane")
+    if frame not in PLANE_MIXERS:
+        raise UserError("%s [params]: a plane's mixer_type is one of %s, not %s"
+                        % (where, ", ".join(PLANE_MIXERS), show(frame)))
+    data["frame"] = frame
     return data
 
 

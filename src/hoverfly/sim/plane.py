@@ -390,3 +390,111 @@ def level_flight(plane, airspeed_m_s, throttle, seconds=10.0):
             speed += plane.airspeed_m_s
     return {"airspeed_m_s": speed / (n - n // 2), "climb_m_s": (plane.altitude_m() - h0) / (seconds / 2),
             "bank_deg": math.degrees(plane.roll_rad), "pitch_deg": math.degrees(plane.pitch_rad)}
+
+
+# ---------------------------------------------------------------------- flying a scenario
+class HandLaunch:
+    """A pilot's throw: the arm swings the plane forward (and a little up) for duration_s, then lets
+    go. 40 m/s2 for 0.3 s leaves the hand at about 12 m/s, a firm overhand throw; the push is well
+    above INAV's launch detection threshold (nav_fw_launch_accel 1863 cm/s2 for 40 ms)."""
+
+    def __init__(self, plane, forward_m_s2=40.0, up_m_s2=12.0, duration_s=0.3):
+        self.plane = plane
+        self.forward_n = plane.mass_kg * forward_m_s2
+        self.up_n = plane.mass_kg * up_m_s2
+        self.duration_s = duration_s
+        self.t0_s = None
+
+    def start(self, t_s):
+        self.t0_s = t_s
+        self.plane.throw(self.forward_n, self.up_n)
+
+    def tick(self, t_s):
+        """Call every step; returns True while the hand still pushes."""
+        if self.t0_s is None:
+            return False
+        if t_s - self.t0_s >= self.duration_s:
+            self.plane.throw(0.0, 0.0)
+            self.t0_s = None
+            return False
+        return True
+
+
+class PlaneJudge:
+    """What a pilot watches on a plane, per step while airborne: airspeed (min, mean, max), the
+    steepest bank, altitude, stalls (airspeed under the airframe's stall speed for 0.2 s or more)
+    and spins (stalled and yawing faster than 60 deg/s for a second: autorotation, not a turn)."""
+
+    STALL_HOLD_S = 0.2
+    SPIN_YAW_RAD_S = math.radians(60.0)
+    SPIN_HOLD_S = 1.0
+
+    def __init__(self, stall_speed_m_s):
+        self.stall_speed_m_s = stall_speed_m_s
+        self.n = 0
+        self.speed_sum = 0.0
+        self.speed_min = math.inf
+        self.speed_max = 0.0
+        self.max_bank_rad = 0.0
+        self.alt_min = math.inf
+        self.alt_max = -math.inf
+        self.stalls = []  # times (s) each stall began
+        self.spins = []
+        self._slow_since = None
+        self._spin_since = None
+        self._in_stall = False
+        self._in_spin = False
+
+    def add(self, t_s, plane):
+        if plane.on_ground:
+            self._slow_since = self._spin_since = None
+            self._in_stall = self._in_spin = False
+            return
+        v = plane.airspeed_m_s
+        self.n += 1
+        self.speed_sum += v
+        if v < self.speed_min:
+            self.speed_min = v
+        if v > self.speed_max:
+            self.speed_max = v
+        bank = abs(plane.roll_rad)
+        if bank > self.max_bank_rad:
+            self.max_bank_rad = bank
+        alt = -plane.pd
+        if alt < self.alt_min:
+            self.alt_min = alt
+        if alt > self.alt_max:
+            self.alt_max = alt
+        slow = v < self.stall_speed_m_s
+        if slow:
+            if self._slow_since is None:
+                self._slow_since = t_s
+            if not self._in_stall and t_s - self._slow_since >= self.STALL_HOLD_S:
+                self._in_stall = True
+                self.stalls.append(round(self._slow_since, 3))
+        else:
+            self._slow_since = None
+            self._in_stall = False
+        if self._in_stall and abs(plane.r) > self.SPIN_YAW_RAD_S:
+            if self._spin_since is None:
+                self._spin_since = t_s
+            if not self._in_spin and t_s - self._spin_since >= self.SPIN_HOLD_S:
+                self._in_spin = True
+                self.spins.append(round(self._spin_since, 3))
+        else:
+            self._spin_since = None
+            self._in_spin = False
+
+    def result(self):
+        """The plane's part of `hoverfly fly --json`."""
+        if self.n == 0:
+            return {"airspeed_m_s": None, "max_bank_deg": None, "stalls": [], "spins": [], "altitude_m": None}
+        return {
+            "airspeed_m_s": {"min": round(self.speed_min, 2), "mean": round(self.speed_sum / self.n, 2),
+                             "max": round(self.speed_max, 2)},
+            "max_bank_deg": round(math.degrees(self.max_bank_rad), 1),
+            "stall_speed_m_s": self.stall_speed_m_s,
+            "stalls": self.stalls,
+            "spins": self.spins,
+            "altitude_m": {"min": round(self.alt_min, 2), "max": round(self.alt_max, 2)},
+        }

@@ -27,7 +27,9 @@ Keys an `[[at]]` entry may hold (several at once):
     falls silent), config_session (0..7: open
     configuration sessions, 1 CLI, 2 MSP, 4 maintenance),
     channel ({ch = 5..16, us = 800..2200}: hold that channel at that pulse width from now on,
-    e.g. an AUX mode switch; the pilot's own arm/mode switches are overridden too).
+    e.g. an AUX mode switch; the pilot's own arm/mode switches are overridden too),
+    throw (a plane's hand launch: true, or {forward_m_s2, up_m_s2, duration_s} of the arm's push).
+A plane's scenario may start in flight: [start] altitude_m, airspeed_m_s, heading_deg.
 
 Every key is checked before anything flies: numbers finite and in range, the right type, required
 keys present, parameters through the table's one check (core/params.check, aliases included; a
@@ -47,10 +49,12 @@ _EVENT_KEYS = {
     "t", "arm", "mode", "throttle", "throttle_us", "roll", "pitch", "yaw", "roll_us", "pitch_us", "yaw_us",
     "hold_altitude_m", "fly_to", "land", "step", "kick", "gust", "wind", "flip", "rx_lost", "imu_freeze",
     "set", "note", "stall_ms",
-    "imu_stuck", "autopilot_switch", "msp_rc", "config_session", "channel",
+    "imu_stuck", "autopilot_switch", "msp_rc", "config_session", "channel", "throw",
 }
 _MSP_RC_KEYS = ("roll", "pitch", "yaw", "throttle", "arm", "rate_hz", "channels", "hold_altitude_m")
-_TOP_KEYS = ("name", "description", "duration_s", "mode", "at", "params", "judge_from_s", "airframe")
+_TOP_KEYS = ("name", "description", "duration_s", "mode", "at", "params", "judge_from_s", "airframe", "start")
+_THROW_KEYS = ("forward_m_s2", "up_m_s2", "duration_s")  # a plane's hand launch (sim/plane.HandLaunch)
+_START_KEYS = ("altitude_m", "airspeed_m_s", "heading_deg")  # a plane that starts in flight
 _STEP_KEYS = ("axis", "to", "unit")
 _MODES = ("acro", "angle", "horizon")
 _AXES = ("roll", "pitch", "yaw")
@@ -172,6 +176,14 @@ def _check_event(where, ev, duration_s):
                 if k not in allowed:
                     raise UserError("%s: %s has no field '%s' (%s)" % (where, key, k, ", ".join(allowed)))
                 _num(where, key + "." + k, v, -lim, lim)
+    if "throw" in ev and ev["throw"] is not True:
+        th = ev["throw"]
+        if not isinstance(th, dict):
+            raise UserError("%s: throw must be true or a table {%s}" % (where, ", ".join(_THROW_KEYS)))
+        for k, v in th.items():
+            if k not in _THROW_KEYS:
+                raise UserError("%s: throw has no field '%s' (%s)" % (where, k, ", ".join(_THROW_KEYS)))
+            _num(where, "throw." + k, v, 0.01 if k == "duration_s" else 0.0, 2.0 if k == "duration_s" else 100.0)
     if "flip" in ev and ev["flip"] not in ("roll", "pitch"):
         raise UserError("%s: flip must be roll or pitch" % where)
     if "note" in ev and not isinstance(ev["note"], str):
@@ -206,6 +218,15 @@ def parse_scenario(text, origin="scenario"):
     events = sorted(events, key=lambda e: e["t"])
     extra = data.get("params", {})
     _params("%s [params]" % origin, extra, False)
+    start = data.get("start")
+    if start is not None:
+        if not isinstance(start, dict):
+            raise UserError("%s: [start] must be a table {%s}" % (origin, ", ".join(_START_KEYS)))
+        for k, v in start.items():
+            if k not in _START_KEYS:
+                raise unknown_key(origin + " [start]", k, _START_KEYS)
+            start[k] = _num(origin + " [start]", k, v, -360.0 if k == "heading_deg" else 0.0,
+                            360.0 if k == "heading_deg" else 1000.0)
     return {
         "name": data.get("name", origin),
         "description": data.get("description", ""),
@@ -215,6 +236,7 @@ def parse_scenario(text, origin="scenario"):
         "params": extra,
         "judge_from_s": judge_from,
         "airframe": data.get("airframe"),
+        "start": start,
     }
 
 
