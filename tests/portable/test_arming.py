@@ -185,16 +185,58 @@ def test_link_back_ends_stage_one_but_not_stage_two_until_sticks_move():
     assert fs.state == IDLE
 
 
-def test_touchdown_spike_of_one_pass_is_latched_until_the_slow_pass():
-    fs = _failsafe()
-    arm = _Arm()
+def _landing(fs, arm):
+    """A failsafe that learnt a hover throttle of 0.4 in level flight, now in stage 2 (at 500 ms)."""
+    q = array("f", [1.0, 0.0, 0.0, 0.0])
+    level = array("f", [0.0, 0.0, -9.80665])
+    for _ in range(500):
+        fs.observe(0.01, q, level, 0.4, 1.0, True)
     fs.update(110000, True, 0, True, False, arm)
     fs.update(500000, True, 0, True, False, arm)
     assert fs.state == STAGE2
-    fs.note_accel(array("f", [0.0, 0.0, -60.0]))  # one 1 ms spike
-    fs.note_accel(array("f", [0.0, 0.0, -9.8]))
+    return q
+
+
+def _slow_passes(fs, arm, q, t_us, seconds, accel_z_m_s2):
+    """The 100 Hz task for `seconds`, the accelerometer reading accel_z on every pass; the time at the end."""
+    a = array("f", [0.0, 0.0, accel_z_m_s2])
+    for _ in range(int(seconds * 100)):
+        for _ in range(10):
+            fs.note_accel(a)
+        t_us += 10000
+        fs.observe(0.01, q, a, 0.0, 1.0, True)
+        fs.update(t_us, True, 0, arm.armed, False, arm)
+        if not arm.armed:
+            break
+    return t_us
+
+
+def test_a_touchdown_spike_then_the_ground_holding_the_craft_is_a_landing():
+    # given stage 2 landing at 1 m/s, when one 1 ms spike (clipped, as an IMU clips a touchdown) is followed by the
+    # craft sitting still although the landing throttle is below hover, then it disarms as landed within 0.4 s
+    fs = _failsafe()
+    arm = _Arm()
+    q = _landing(fs, arm)
+    fs.speed_down_m_s = 1.0
+    fs.note_accel(array("f", [0.0, 0.0, -150.0]))
     fs.update(800000, True, 0, True, False, arm)
+    assert arm.armed  # a spike alone is no landing
+    _slow_passes(fs, arm, q, 800000, 0.4, -9.80665)
     assert not arm.armed and arm.reason == DISARM_LANDED
+
+
+def test_a_spike_in_the_air_followed_by_falling_is_no_landing():
+    # given stage 2, when rotor vibration passes the touchdown spike and the craft then accelerates down (in the
+    # air, the landing throttle below hover), then it stays armed and its descent estimate gets back what it had
+    fs = _failsafe()
+    arm = _Arm()
+    q = _landing(fs, arm)
+    fs.speed_down_m_s = 1.0
+    fs.note_accel(array("f", [0.0, 0.0, -40.0]))
+    fs.update(800000, True, 0, True, False, arm)
+    _slow_passes(fs, arm, q, 800000, 1.0, -9.80665 + 3.0)  # 3 m/s² down
+    assert arm.armed
+    assert fs.speed_down_m_s > 2.5  # 1 m/s before the spike, and 3 m/s² for a second since
 
 
 def test_landing_throttle_never_exceeds_1_3_hover_and_descends_when_still():

@@ -57,7 +57,19 @@ SWITCH_STAGE2 = const(1)
 SWITCH_KILL = const(2)
 
 _G_M_S2 = 9.80665
-# Touchdown: an acceleration spike above this while landing (m/s²; 2.5 g), squared to skip the root.
+# Landed: the landing throttle well below the hover throttle (so in the air the craft would be accelerating
+# down at a metre per second squared or more), yet it neither accelerates down nor descends: the ground holds it.
+# Held for _GROUND_S, or _IMPACT_GROUND_S after an impact (an acceleration spike above 2.5 g). A spike alone is
+# no landing: rotor vibration reaches it in the air (11 of 200 rx-loss flights disarmed metres up on it).
+# An impact also sets the descent estimate to 0: the accelerometer clips the touchdown's deceleration (100 g for a
+# millisecond), so the estimate would go on saying 1 m/s and ask for the hover throttle on the ground. If the
+# craft then accelerates down, it was in the air: the estimate gets back what it had.
+_GROUND_THR = 0.9  # landing throttle below this share of the hover throttle
+_GROUND_A_M_S2 = 0.7  # |vertical acceleration| below this (low-passed, _GROUND_TAU_S)
+_GROUND_TAU_S = 0.1
+_GROUND_SPEED_M_S = 0.5  # estimated descent below this
+_GROUND_S = 0.5
+_IMPACT_GROUND_S = 0.25
 _TOUCHDOWN_M_S2 = 24.5
 _TOUCHDOWN_SQ = _TOUCHDOWN_M_S2 * _TOUCHDOWN_M_S2
 # No touchdown in the first 200 ms of stage 2: the throttle cut itself jolts the frame.
@@ -89,6 +101,14 @@ class Failsafe:
         self.speed_down_m_s = 0.0
         self.land_throttle_norm = 0.3
         self._peak_sq = 0.0
+        self._impact = False  # a spike above _TOUCHDOWN_M_S2 seen in stage 2
+        self._speed_before_impact_m_s = 0.0
+        # note_accel's sum and count of the passes since the last observe: observe integrates their mean, since a
+        # touchdown's deceleration lasts a few milliseconds and one sample in ten would miss it
+        self._acc_sum = array("f", (0.0, 0.0, 0.0))
+        self._acc_n = 0
+        self._a_down_f = 0.0  # the vertical acceleration, low-passed, while the failsafe runs
+        self._ground_s = 0.0  # how long the ground has held the craft (see _GROUND_THR)
         self._learn_dt_s = -1.0  # observe: the dt of a call whose learning waits for the next (-1.0: none)
         self.commander = None  # told at each change of stage who flies (Commander.failsafe_flies), when wired
 
@@ -111,6 +131,11 @@ class Failsafe:
         sq = a0 * a0 + a1 * a1 + a2 * a2
         if sq > self._peak_sq:
             self._peak_sq = sq
+        s = self._acc_sum
+        s[0] += a0
+        s[1] += a1
+        s[2] += a2
+        self._acc_n += 1
 
     def observe(self, dt_s, q, accel_m_s2, throttle_norm, cos_tilt, flying):
         """Slow task: learn the hover throttle while the pilot flies; while the failsafe runs,
@@ -137,8 +162,21 @@ class Failsafe:
         x = q[1]
         y = q[2]
         z = q[3]
-        a_down = (2.0 * ((x * z - w * y) * accel_m_s2[0] + (y * z + w * x) * accel_m_s2[1])
-                  + cos_tilt * accel_m_s2[2] + _G_M_S2)
+        n = self._acc_n
+        if n:  # landing: the mean over every pass since the last call
+            s = self._acc_sum
+            a0 = s[0] / n
+            a1 = s[1] / n
+            a2 = s[2] / n
+            s[0] = 0.0
+            s[1] = 0.0
+            s[2] = 0.0
+            self._acc_n = 0
+        else:
+            a0 = accel_m_s2[0]
+            a1 = accel_m_s2[1]
+            a2 = accel_m_s2[2]
+        a_down = 2.0 * ((x * z - w * y) * a0 + (y * z + w * x) * a1) + cos_tilt * a2 + _G_M_S2
         if self.state == IDLE:  # flying (see above)
             # While the pilot flies the speed estimate leaks back to zero (a craft flown by hand
             # does not keep one vertical speed for long), so stage 1 starts from the speed the
@@ -158,15 +196,26 @@ class Failsafe:
         # No bias correction: a calibrated accelerometer's ~0.03 m/s² is 0.3 m/s after 10 s, and a
         # bias learnt in flight would learn the pilot's climbs and descents too.
         self.speed_down_m_s += a_down * dt_s
+        f = self._a_down_f + (a_down - self._a_down_f) * (dt_s / (_GROUND_TAU_S + dt_s))
+        self._a_down_f = f
         hover = self.hover_norm
+        c = cos_tilt if cos_tilt > 0.7 else 0.7
         if hover <= 0.0:
             self.land_throttle_norm = self.throttle_norm
-            return
-        c = cos_tilt if cos_tilt > 0.7 else 0.7
-        thr = hover / c + _LAND_KV * (self.speed_down_m_s - self.land_m_s)
-        lo = _LAND_MIN * hover
-        hi = _LAND_MAX * hover
-        self.land_throttle_norm = lo if thr < lo else (hi if thr > hi else thr)
+        else:
+            thr = hover / c + _LAND_KV * (self.speed_down_m_s - self.land_m_s)
+            lo = _LAND_MIN * hover
+            hi = _LAND_MAX * hover
+            self.land_throttle_norm = lo if thr < lo else (hi if thr > hi else thr)
+        if self._impact and f > _GROUND_A_M_S2:  # accelerating down after the "impact": still in the air
+            self._impact = False
+            self.speed_down_m_s += self._speed_before_impact_m_s
+        # (with no hover throttle learnt, the thrust test is skipped and update wants an impact as well)
+        if (self.state == STAGE2 and (hover <= 0.0 or self.land_throttle_norm < _GROUND_THR * hover / c)
+                and -_GROUND_A_M_S2 < f < _GROUND_A_M_S2 and self.speed_down_m_s < _GROUND_SPEED_M_S):
+            self._ground_s += dt_s
+        else:
+            self._ground_s = 0.0
 
     def update(self, now_us, link_lost, last_frame_us, armed, sticks_moved, arming, cause=CAUSE_NO_FRAMES,
                skip_stage1=False):
@@ -188,6 +237,13 @@ class Failsafe:
             elif skip_stage1 or ticks_diff(now_us, self.stage_since_us) >= self.rx_timeout_us + self.delay_us:
                 self.stage_since_us = now_us
                 self._peak_sq = 0.0
+                self._impact = False
+                self._ground_s = 0.0
+                self._a_down_f = 0.0
+                self._acc_n = 0
+                self._acc_sum[0] = 0.0
+                self._acc_sum[1] = 0.0
+                self._acc_sum[2] = 0.0
                 self._stage(now_us, STAGE2, EV_FAILSAFE_STAGE2, self.procedure)
                 if self.procedure == PROC_DROP:
                     arming.disarm(now_us, DISARM_FAILSAFE)
@@ -198,8 +254,18 @@ class Failsafe:
                 return
             if self.procedure == PROC_LAND:
                 since = ticks_diff(now_us, self.stage_since_us)
-                landed = self._peak_sq > _TOUCHDOWN_SQ and since > _TOUCHDOWN_ARM_US
+                if self._peak_sq > _TOUCHDOWN_SQ and since > _TOUCHDOWN_ARM_US and not self._impact:
+                    self._impact = True
+                    self._speed_before_impact_m_s = self.speed_down_m_s
+                    self.speed_down_m_s = 0.0
+                    self._ground_s = 0.0
                 self._peak_sq = 0.0
+                held = self._ground_s
+                if self._impact:
+                    landed = held >= _IMPACT_GROUND_S
+                else:
+                    landed = held >= _GROUND_S and self.hover_norm > 0.0
+                landed = landed and since > _TOUCHDOWN_ARM_US
                 if landed:
                     self.events.record(now_us, EV_LANDED, 0)
                 if landed or since >= self.land_max_us:

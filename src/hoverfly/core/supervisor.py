@@ -105,7 +105,8 @@ class Supervisor:
             dt_s = 0.01
         armed = arming.armed
         # IMU: no new samples for imu_stale_ms, or new samples frozen, saturated or not finite
-        imu_ok = ticks_diff(now_us, f.imu_us) <= self._imu_stale_us
+        # 0 <=: a sample more than half the tick period old (about 9 minutes) reads negative, and is stale
+        imu_ok = 0 <= ticks_diff(now_us, f.imu_us) <= self._imu_stale_us
         fault = fw.check_imu(s.gyro_raw_rad_s, s.accel_raw_m_s2) if imu_ok else FAULT_NONE
         if fault == FAULT_NONE and imu_ok and not f.state_finite():
             fault = FAULT_IMU_NONFINITE  # a bad sample between two checks, held in the filters' state
