@@ -37,6 +37,7 @@ from hoverfly.protocols import msp
 
 PUMP_PERIOD_S = 0.02  # 50 Hz: the sticks and the telemetry
 STICKS_STALE_S = 0.25  # no sticks message this long: stop sending, the controller's link watch takes over
+ARM_OFF_TICKS = 10  # a new stick stream's first frames (200 ms at 50 Hz) carry the arm switch off
 MOTOR_DEADMAN_S = 0.5  # no motor_test call this long: the test stops
 RECONNECT_S = 1.0
 STATUS_EVERY = 10  # slow MSP reads (status, battery) every this many pump ticks: 5 Hz
@@ -148,6 +149,7 @@ class Session:
         self.sticks = None  # (roll, pitch, yaw, throttle, aux) of the latest message
         self.sticks_at = 0.0
         self.arm = False
+        self._arm_off_ticks = 0  # frames still to send with the arm switch off (see _override_state)
         self.override = "off"  # off / sending / stopped
         self.override_refusal = None
         self.rc_sent = 0
@@ -659,17 +661,27 @@ class Session:
                 self.tick_s_max = took_s
 
     def _override_state(self, fresh):
+        """Whether this tick's frame may carry the arm switch on."""
         if fresh:
+            if self.override != "sending" and not self.state["armed"]:
+                # SAFETY and Betaflight's rule alike: a controller that has just met a new stream (or lost one)
+                # arms only after it has seen the arm switch off, so a new stream starts with it off.
+                self._arm_off_ticks = ARM_OFF_TICKS
             self.override = "sending"
-        elif self.override == "sending":
+            if self._arm_off_ticks > 0:
+                self._arm_off_ticks -= 1
+                return False
+            return self.arm
+        if self.override == "sending":
             self.override = "stopped"
+        return False
 
     def _tick_maint(self, fresh):
         rc = None
+        arm = self._override_state(fresh)
         if fresh:
             roll, pitch, _, thr, _ = self._pulses()
-            rc = (1, 2000 if self.arm else 1000, roll, pitch, thr)
-        self._override_state(fresh)
+            rc = (1, 2000 if arm else 1000, roll, pitch, thr)
         reply = self.client.request(_MAINT_FAST, mp.CMD_NONE, (), rc)
         if rc is not None:
             self.rc_sent += 1
@@ -682,7 +694,8 @@ class Session:
             "t": "telemetry",
             "attitude_deg": [v["body_roll"], v["body_pitch"], v["body_yaw"]],
             "gyro_dps": gyro,
-            "acc_g": [v["filtered_accel_x"] / _G, v["filtered_accel_y"] / _G, v["filtered_accel_z"] / _G],
+            # z as MSP_RAW_IMU gives it (Betaflight's sign: level at rest reads +1 g), so both links plot alike
+            "acc_g": [v["filtered_accel_x"] / _G, v["filtered_accel_y"] / _G, -v["filtered_accel_z"] / _G],
             "setpoint_dps": [err[k] + gyro[k] for k in range(3)],
             "motors": [v["motor%d_signal" % k] for k in range(1, 5)],
             "rc": [v["roll_signal"], v["pitch_signal"], 1500, v["throttle_signal"]],
@@ -694,11 +707,11 @@ class Session:
         cmds = [(msp.MSP_ATTITUDE, b""), (msp.MSP_RAW_IMU, b""), (msp.MSP_MOTOR, b""), (msp.MSP_RC, b"")]
         if self._ticks % STATUS_EVERY == 1:
             cmds += [(msp.MSP_STATUS_EX, b""), (msp.MSP_ANALOG, b"")]
-        self._override_state(fresh)
+        arm = self._override_state(fresh)
         if fresh:
             roll, pitch, yaw, thr, aux = self._pulses()
             # AETR1234, as Betaflight's MSP receiver takes it; AUX1 is the arm switch
-            aux = [2000 if self.arm else 1000] + (aux[1:] + [1500] * 3)[:3]
+            aux = [2000 if arm else 1000] + (aux[1:] + [1500] * 3)[:3]
             cmds.append((msp.MSP_SET_RAW_RC, msp.pack_set_raw_rc([roll, pitch, thr, yaw] + aux[:4])))
         replies, refused = self._msp_batch(cmds)
         if fresh:
