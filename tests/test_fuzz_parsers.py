@@ -175,7 +175,10 @@ def test_a_mutated_stream_never_raises_and_the_next_good_frame_after_a_quiet_lin
     else:
         while p.pop() >= 0:  # frames the damaged stream completed before the filler
             pass
-        p.feed(filler + good)
+        p.feed(filler)
+        while p.pop() >= 0:  # a damaged frame the filler completed: its CRC-8 matches one time in 256
+            pass
+        p.feed(good)
         kind = p.pop()
         assert kind == good[1] and bytes(p.payload[: p.length]) == good[bridge.HEADER : -1]
         assert p.pop() == -1
