@@ -176,7 +176,7 @@ _PLANE_KEYS = ("name", "description", "kind", "model", "xml", "servos", "battery
                "stall_speed_m_s", "motor_rad_s", "rest_height_m")
 _PLANE_NUMBERS = {"stall_speed_m_s": (0.0, 60.0, False), "motor_rad_s": (0.0, 10000.0, False),
                   "rest_height_m": (0.0, 1.0, False)}
-_SERVO_OUTPUTS = 8  # the simulated board's servo outputs
+_SERVO_OUTPUTS = 4  # the simulated board's servo outputs (sim/board.py)
 
 
 def _positive(where, root, path, unit_note):

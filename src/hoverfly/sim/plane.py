@@ -138,7 +138,7 @@ class Plane:
             ka, ke, kr = SURFACES[surface]
             d = spec["direction"]
             self.wiring.append((spec["servo"], ka * d, ke * d, kr * d))
-        self.servo_pos = [0.0] * 8  # the runner hands the board's servo positions list in here
+        self.servo_pos = [0.0] * 4  # the runner hands the board's servo positions list in here
         self.n = 1
         self.omega = [0.0]
         self.servo_cmd = 0.0
