@@ -391,3 +391,23 @@ def test_the_judge_calls_a_stalled_autorotation_a_spin_but_not_a_fast_turn():
     assert r["stalls"] == [3.0] and r["spins"] == [3.2]  # a spin is counted from the stall on
     judge.add(5.0, type("Landed", (), {"on_ground": True})())
     assert judge.result()["airspeed_m_s"]["min"] == 5.0
+
+
+def test_the_runner_flies_a_plane_and_reports_its_airspeed_and_bank_in_the_json():
+    """Plumbing only, until the fixed-wing core exists: the quad core's outputs drive the plane (its
+    servos stay centred, motor 1 is the throttle), so this checks the runner's plane wiring, the
+    [start] in flight, the throw and the plane's part of the result, not how the flight is flown."""
+    from hoverfly.sim.runner import SimRun
+
+    af = load_airframe("trainer")
+    af["frame"] = "quadx"
+    af["params"] = {}
+    r = SimRun(af, "bank-steps", seed=1, duration_s=3.0).run()
+    assert not r["crashed"]
+    a = r["airspeed_m_s"]
+    assert 9.0 < a["min"] <= a["mean"] <= a["max"] < 16.0  # started in flight at 13 m/s
+    assert r["altitude_m"]["max"] == pytest.approx(80.0, abs=1.0)
+    assert r["max_bank_deg"] < 10.0 and r["stalls"] == [] and r["spins"] == []
+    r = SimRun(af, "launch", seed=1, duration_s=3.0).run()
+    assert r["airspeed_m_s"]["max"] > 10.0  # the throw at 2 s
+    assert r["altitude_m"]["max"] > 0.3

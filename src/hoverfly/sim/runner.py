@@ -120,8 +120,19 @@ class SimRun:
             raise UserError("mixer_type %s does not fit the %s airframe (%s)"
                             % (frame, self.airframe["name"], self.airframe["frame"]))
         self.loop_hz = self.params.get("loop_hz")
-        self.vehicle = Vehicle(self.airframe, frame)
+        self.plane_judge = None
+        self.hand_launch = None
+        if self.airframe.get("kind") == "plane":
+            self.vehicle = self._plane()
+        else:
+            self.vehicle = Vehicle(self.airframe, frame)
         self.board = SimBoard(self.vehicle.n, self.params.get("rx_provider"), self.params.get("rx_pwm_channels"))
+        if self.plane_judge is not None:
+            from hoverfly.sim.plane import plane_servos
+
+            for i, servo in plane_servos(self.airframe).items():  # each servo's own end points
+                self.board.servos[i] = servo
+            self.vehicle.servo_pos = self.board.servo_cmd
         self.imu = ImuModel(self.airframe["imu"], seed, self.loop_hz, self.vehicle.hover_omega(), self.vehicle.n)
         # The simulated ESCs speak `esc` and the flight controller's output codec is set up to match;
         # they read the real frames or pulse widths and answer bidirectional DShot from the rotors.
@@ -156,8 +167,27 @@ class SimRun:
 
             self.log = attach(self, log_path)
 
+    def _plane(self):
+        """A JSBSim plane (sim/plane.py): on the ground for a hand launch, or in flight at the
+        scenario's [start]; its judge and the pilot's throwing arm."""
+        from hoverfly.sim.plane import HandLaunch, Plane, PlaneJudge
+
+        plane = Plane(self.airframe, self.loop_hz)
+        # the core's mixer may drive more motors than the plane has (they drive nothing)
+        plane.n = len(MIXER_TABLES[self.params.get("mixer_type")])
+        plane.omega.extend([0.0] * (plane.n - 1))
+        start = self.scenario.get("start")
+        if start:
+            plane.reset(altitude_m=start.get("altitude_m", 50.0), yaw_rad=math.radians(start.get("heading_deg", 0.0)),
+                        airspeed_m_s=start.get("airspeed_m_s", 13.0))
+        self.plane_judge = PlaneJudge(self.airframe["stall_speed_m_s"])
+        self.hand_launch = HandLaunch(plane)
+        return plane
+
     def _hover_throttle_guess(self):
         v = self.vehicle
+        if self.plane_judge is not None:
+            return 0.35  # a plane never hovers: the pilot's cruise throttle
         omega_max = v.omega_per_volt * v.battery.voltage_v
         u = v.hover_omega() / omega_max
         idle = self.params.get("motor_idle_pct") * 0.01
@@ -233,6 +263,8 @@ class SimRun:
         servo_cmd = board.servo_cmd
         flight_events = flight.events
         realtime = self.realtime
+        plane_judge = self.plane_judge
+        hand_launch = self.hand_launch
         wall0 = perf()
 
         for k in range(n_steps):
@@ -259,6 +291,9 @@ class SimRun:
                 self._output_event(output_fs)
             v.servo_cmd = servo_cmd[0]
             v.step(dt, motor_cmd)
+            if plane_judge is not None:
+                hand_launch.tick(t)
+                plane_judge.add(t, v)
             board.sim_us += period_us
             if not frozen:
                 imu.sample(v, gyro, accel)
@@ -343,7 +378,7 @@ class SimRun:
         alt_now = v.altitude_m()
         n_tilt = tilt_n
         sched = flight.scheduler
-        return {
+        result = {
             "scenario": self.scenario["name"],
             "airframe": self.airframe["name"],
             "seed": self.seed,
@@ -379,6 +414,11 @@ class SimRun:
             "receiver": self.params.get("rx_provider"),
             "firmware_runtime": self.firmware,
         }
+        if plane_judge is not None:  # airspeed, bank, stalls and spins; the altitude is the runner's own
+            plane = plane_judge.result()
+            del plane["altitude_m"]
+            result.update(plane)
+        return result
 
     # ---------------------------------------------------------------- helpers
     def _output_event(self, tripped):
@@ -466,6 +506,13 @@ class SimRun:
             p.start_land(v)
         if "flip" in ev:
             p.start_flip(ev["flip"], t)
+        if "throw" in ev and self.hand_launch is not None:
+            th = ev["throw"] if isinstance(ev["throw"], dict) else {}
+            h = self.hand_launch
+            h.forward_n = v.mass_kg * th.get("forward_m_s2", 40.0)
+            h.up_n = v.mass_kg * th.get("up_m_s2", 12.0)
+            h.duration_s = th.get("duration_s", 0.3)
+            h.start(t)
         if "step" in ev or "mode" in ev:
             # A new step, or a mode change, ends the windows of the steps still being measured.
             for axis_open in list(steps_open):
