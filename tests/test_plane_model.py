@@ -276,6 +276,8 @@ def test_a_bad_plane_airframe_is_one_clear_line(tmp_path, change, says):
     (('<emptywt unit="KG"> 1.20 </emptywt>', ''), "lacks mass_balance/emptywt"),
     (('<axis name="LIFT">', '<axis name="LIFTX">'), "lacks the LIFT axis"),
     (('<fdm_config name="trainer"', '<fdm_config name="trainer" <'), "not valid XML"),
+    (('engine file="motor_trainer"', 'engine file="no_such_motor"'), "engine file 'no_such_motor' is not in"),
+    (('thruster file="prop_10x6"', 'thruster file="prop_99"'), "thruster file 'prop_99' is not in"),
 ])
 def test_missing_or_nonsense_aero_data_is_refused_before_jsbsim_flies_it(tmp_path, change, says):
     xml = _trainer_xml()
@@ -411,3 +413,18 @@ def test_the_runner_flies_a_plane_and_reports_its_airspeed_and_bank_in_the_json(
     r = SimRun(af, "launch", seed=1, duration_s=3.0).run()
     assert r["airspeed_m_s"]["max"] > 10.0  # the throw at 2 s
     assert r["altitude_m"]["max"] > 0.3
+
+
+def test_what_jsbsim_itself_refuses_is_one_line_and_its_own_messages_stay_off_the_output(tmp_path, capfd):
+    xml = _trainer_xml().replace('engine file="motor_trainer"', 'engine file="no_such_motor"')
+    (tmp_path / "mine.xml").write_text(xml)
+    af = load_airframe("trainer")
+    af["xml"] = str(tmp_path / "mine.xml")  # past the airframe check, straight to JSBSim
+    with pytest.raises(UserError) as e:
+        P.Plane(af, 1000)
+    assert "Could not open file: no_such_motor" in str(e.value) and "\n" not in str(e.value)
+    out, err = capfd.readouterr()
+    assert out == "" and err == ""
+    P.Plane(load_airframe("trainer"), 1000)
+    out, err = capfd.readouterr()
+    assert "JSBSim" not in out  # no banner in front of fly --json

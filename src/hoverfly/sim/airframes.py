@@ -194,8 +194,8 @@ def _positive(where, root, path, unit_note):
 
 def check_plane_xml(path, where):
     """The aero data a flight needs, present and sane, before JSBSim sees the file (JSBSim itself
-    flies a model without wings or mass): wing area/span/chord, mass and inertia positive, and lift,
-    drag and the three moments each given by at least one function."""
+    flies a model without wings or mass): wing area/span/chord, mass and inertia positive, its engine
+    and propeller files there, and lift, drag and the three moments each given by at least one function."""
     try:
         root = ElementTree.parse(str(path)).getroot()
     except ElementTree.ParseError as exc:
@@ -208,6 +208,15 @@ def check_plane_xml(path, where):
                     ("mass_balance/emptywt", "mass"), ("mass_balance/ixx", "roll inertia"),
                     ("mass_balance/iyy", "pitch inertia"), ("mass_balance/izz", "yaw inertia")):
         _positive(where, root, p, what)
+    from hoverfly.sim.plane import engine_dir
+
+    engines = engine_dir(path)
+    for tag in ("propulsion/engine", "propulsion/engine/thruster"):
+        for node in root.findall(tag):
+            name = node.get("file", "")
+            if not name or not (engines / (name + ".xml")).is_file():
+                raise UserError("%s: the JSBSim model's %s file '%s' is not in %s"
+                                % (where, tag.rsplit("/", 1)[1], show(name), engines))
     aero = root.find("aerodynamics")
     axes = {} if aero is None else {a.get("name", "").upper(): a for a in aero.findall("axis")}
     for axis in ("LIFT", "DRAG", "ROLL", "PITCH", "YAW"):

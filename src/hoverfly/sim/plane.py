@@ -72,11 +72,36 @@ def model_file(airframe):
     return ROOT / "aircraft" / airframe["model"] / (airframe["model"] + ".xml")
 
 
+def engine_dir(xml):
+    """Where a model's engine and propeller files are: an engine/ folder beside the XML, or the
+    engine/ of the JSBSim root it sits in (root/aircraft/<name>/<name>.xml), else hoverfly's own."""
+    xml = pathlib.Path(xml)
+    for d in (xml.parent / "engine", xml.parent.parent.parent / "engine"):
+        if d.is_dir() and any(d.glob("*.xml")):
+            return d
+    return ROOT / "engine"
+
+
+def _flush_c_stdio():
+    try:
+        import ctypes
+
+        ctypes.CDLL(None).fflush(None)
+    except (OSError, AttributeError):  # no C library to reach: nothing buffered there to lose
+        pass
+
+
 def load_fdm(airframe, dt_s):
     """A JSBSim executive with the airframe's model loaded; UserError if JSBSim refuses it.
 
-    A user's XML is looked for beside its engine files: an engine/ folder next to it (or the
-    folder it sits in), then hoverfly's own engines."""
+    JSBSim reports its problems on the process's own stdout/stderr (C++ streams, several lines):
+    they are caught at the file-descriptor level while the model loads, so `hoverfly fly --json`
+    stays clean and a refusal is one line naming JSBSim's first complaint."""
+    import contextlib
+    import io
+    import os
+    import tempfile
+
     jsbsim = _jsbsim()
     jsbsim.FGJSBBase().debug_lvl = 0  # keep JSBSim's banner off stdout (fly --json prints there)
     xml = model_file(airframe)
@@ -85,18 +110,35 @@ def load_fdm(airframe, dt_s):
     fdm = jsbsim.FGFDMExec(root_dir=str(ROOT))
     fdm.set_debug_level(0)
     fdm.set_dt(dt_s)
-    engines = ROOT / "engine"
-    for d in (xml.parent / "engine", xml.parent.parent.parent / "engine", xml.parent):
-        if d.is_dir() and any(d.glob("*.xml")) and d != xml.parent:
-            engines = d
-            break
-    try:
-        ok = fdm.load_model_with_paths(xml.stem, str(xml.parent), str(engines), str(ROOT / "systems"), False)
-    except Exception as exc:  # JSBSim raises its own types for malformed XML
-        first = (str(exc).strip().splitlines() or [""])[0]
-        raise UserError("airframe %s: JSBSim cannot load %s: %s" % (airframe["name"], xml.name, first)) from None
+    ok = False
+    failure = ""
+    py_out = io.StringIO()
+    with tempfile.TemporaryFile(mode="w+b") as caught:
+        saved = [os.dup(1), os.dup(2)]
+        try:
+            os.dup2(caught.fileno(), 1)
+            os.dup2(caught.fileno(), 2)
+            # under a Python that has replaced sys.stdout (pytest, a notebook) JSBSim writes there
+            with contextlib.redirect_stdout(py_out), contextlib.redirect_stderr(py_out):
+                try:
+                    ok = fdm.load_model_with_paths(xml.stem, str(xml.parent), str(engine_dir(xml)),
+                                                   str(ROOT / "systems"), False)
+                except Exception as exc:  # JSBSim raises its own types for malformed XML
+                    failure = str(exc)
+        finally:
+            _flush_c_stdio()  # JSBSim's C++ streams buffer when not on a terminal
+            os.dup2(saved[0], 1)
+            os.dup2(saved[1], 2)
+            os.close(saved[0])
+            os.close(saved[1])
+        caught.seek(0)
+        said = caught.read().decode("utf-8", "replace") + py_out.getvalue()
     if not ok:
-        raise UserError("airframe %s: JSBSim cannot load %s" % (airframe["name"], xml.name))
+        lines = [ln.strip() for ln in (failure + "\n" + said).splitlines()
+                 if ln.strip() and not ln.strip().startswith("In file")]
+        telling = [ln for ln in lines if "could not" in ln.lower() or "error" in ln.lower()] or lines
+        raise UserError("airframe %s: JSBSim cannot load %s%s"
+                        % (airframe["name"], xml.name, (": " + telling[0]) if telling else ""))
     return fdm
 
 
