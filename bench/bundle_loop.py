@@ -14,7 +14,7 @@ function whose locals and stack pass 11 words gets one on every call; gc.mem_all
 counted as calls of m_malloc_maybe, the allocator its frame set-up uses. bundle_bytes: the .mpy files each board
 gets (what its filesystem holds, and what RAM holds of a module once it is imported).
 
-`--each [MODULE ...]` measures instead each module alone as machine code (paths as in the bundle, `core/rc.py`;
+`--each [MODULE ...]` measures instead each module alone as machine code (paths as in the bundle, `core/stages/rc.py`;
 default: every portable module): {module: {ir_saved, rp2040_bytes_added}}, the instructions a pass it saves
 against the bytecode bundle and what it adds to an RP2040's bundle: the table NATIVE_MODULES was chosen from
 (docs/pico.md). About a minute a module.

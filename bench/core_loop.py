@@ -4,7 +4,7 @@ Runs under CPython and MicroPython; prints one JSON object:
 {runtime, us_per_pass, bytes_per_pass, passes, passes_per_gc, us_per_pass_after_gc, tasks_us_per_pass,
 loop_us_per_pass}. Armed, angle mode: an
 MPU-6050 burst decoded by the MPU-6050 driver, filters, estimator, commander, PIDs, mixer, DShot words
-(core.output.OutputEncoder), a CRSF frame parsed every 4th pass, the scheduler's slow tasks included.
+(core.stages.output.OutputEncoder), a CRSF frame parsed every 4th pass, the scheduler's slow tasks included.
 bytes_per_pass from gc.mem_alloc() deltas with the GC disabled (0 on CPython). Garbage is collected between
 passes, untimed, as the rp2 main loop collects it (timed_passes below); us_per_pass_after_gc is the passes
 right after a collection, which run with the host's caches emptied by it. tasks_us_per_pass is the part of a
@@ -17,7 +17,7 @@ words, commander included (Betaflight's gyro/PID loop, its tasks apart).
     MICROPYPATH=src:.frozen micropython -X heapsize=512k bench/core_loop.py
     MICROPYPATH=src:.frozen micropython -X heapsize=512k bench/core_loop.py --rx-core1
 
-With --rx-core1 the receiver's UART reads and CRSF parsing are core 1's (`rx_core1`, core/rxcore.py): the
+With --rx-core1 the receiver's UART reads and CRSF parsing are core 1's (`rx_core1`, core/stages/rxcore.py): the
 codec's RxCore polls the bench board before every other pass, outside the timing (on a Pico it runs on the
 other core meanwhile): the board answers every other poll, so a frame still comes every 4th pass, and the
 pass takes it from the handover. The JSON says "rx_core1": true.
@@ -33,12 +33,14 @@ if sys.implementation.name == "micropython":
     # one at a time, leaves first, collecting in between (the device loads precompiled .mpy).
     import gc
 
-    for _name in ("accel.mpu6050", "drivers.orientation", "drivers.imu", "drivers.mpu6050", "core.params",
-                  "core.events", "core.filters", "accel.imufilter", "core.fixedimu", "core.control", "core.estimator",
-                  "accel.att", "core.fixedatt", "core.mixer", "core.pid", "accel.rate", "core.fixedrate",
-                  "core.arming", "accel.faults", "core.failsafe", "accel.rc", "core.rc", "accel.sched",
-                  "core.scheduler", "core.signals", "accel.output", "accel.dshot", "core.output", "core.receiver",
-                  "core.logger", "core.commander", "core.supervisor", "core.flight"):
+    for _name in ("accel.mpu6050", "drivers.orientation", "drivers.imu", "drivers.mpu6050", "core.config.params",
+                  "core.events", "core.stages.filters", "accel.imufilter", "core.fastpass.fixedimu",
+                  "core.stages.control", "core.stages.estimator", "accel.att", "core.fastpass.fixedatt",
+                  "core.stages.mixer", "core.stages.pid", "accel.rate", "core.fastpass.fixedrate",
+                  "core.safety.arming", "accel.faults", "core.safety.failsafe", "accel.rc", "core.stages.rc",
+                  "accel.sched", "core.scheduler", "core.signals", "accel.output", "accel.dshot",
+                  "core.stages.output", "core.stages.receiver", "core.log.logger", "core.command.commander",
+                  "core.safety.supervisor", "core.flight"):
         gc.collect()
         try:
             __import__("hoverfly." + _name)
@@ -58,8 +60,8 @@ from hoverfly.compat import (
 )
 from hoverfly.core.board import Board
 from hoverfly.core.flight import Flight
-from hoverfly.core.output import OutputEncoder
 from hoverfly.core.scheduler import HeapWatch
+from hoverfly.core.stages.output import OutputEncoder
 from hoverfly.drivers.mpu6050 import MPU6050, WHO_AM_I_VALUE
 from hoverfly.drivers.orientation import Orientation
 from hoverfly.protocols.crsf import encode_rc_frame
@@ -208,7 +210,7 @@ def timed_passes(board, f, t, passes, after_gc=None, core1=None):
 
 def rx_core1(f):
     """The flight's receiver codec handed to an RxCore (rx_core1), for timed_passes to poll as core 1 would."""
-    from hoverfly.core.rxcore import RxLink
+    from hoverfly.core.stages.rxcore import RxLink
 
     return f.receiver.use_core1(RxLink())
 

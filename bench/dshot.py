@@ -19,8 +19,8 @@ from hoverfly.compat import (
     ticks_diff,
     ticks_us,
 )
-from hoverfly.core.output import OutputEncoder
-from hoverfly.core.params import Params
+from hoverfly.core.config.params import Params
+from hoverfly.core.stages.output import OutputEncoder
 from hoverfly.protocols.dshot import DshotEncoder, ErpmDecoder, dshot_frame, gcr_encode
 
 RUNS = 5

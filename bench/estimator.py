@@ -1,5 +1,5 @@
-"""What one attitude update costs: the float Mahony (core/estimator.py) against the fixed-point one
-(core/fixedatt.py: the viper twin on MicroPython, the Python twin elsewhere).
+"""What one attitude update costs: the float Mahony (core/stages/estimator.py) against the fixed-point one
+(core/fastpass/fixedatt.py: the viper twin on MicroPython, the Python twin elsewhere).
 
 Both run the same 250 Hz update on the same turning, vibrating samples (a quarter of the calls
 trusted less, or not at all, as in a manoeuvre), armed, with the bias integral on. `float` is one
@@ -23,9 +23,9 @@ import sys
 from array import array
 
 from hoverfly.compat import collect_garbage, disable_gc, enable_gc, mem_alloc, ticks_diff, ticks_us
-from hoverfly.core import fixedatt
-from hoverfly.core.estimator import Attitude, Mahony
-from hoverfly.core.params import Params
+from hoverfly.core.config.params import Params
+from hoverfly.core.fastpass import fixedatt
+from hoverfly.core.stages.estimator import Attitude, Mahony
 
 CALLS = 100  # with the collector off: 100 float calls make about 390 kB
 ROUNDS = 15

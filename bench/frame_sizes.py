@@ -24,11 +24,12 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 SRC = os.path.join(ROOT, "src")
 LIMIT_WORDS = 11
-MODULES = ("drivers/orientation", "drivers/imu", "drivers/mpu6050", "core/params", "core/events", "core/filters",
-           "core/fixedimu", "core/control", "core/estimator", "core/mixer", "core/pid", "core/fixedrate",
-           "core/arming", "core/failsafe", "core/rc", "core/commander", "core/supervisor", "core/scheduler",
-           "core/signals", "core/output",
-           "core/receiver", "core/logger", "core/flight", "core/motortest", "protocols/crsf", "protocols/dshot")
+MODULES = ("drivers/orientation", "drivers/imu", "drivers/mpu6050", "core/config/params", "core/events",
+           "core/stages/filters", "core/fastpass/fixedimu", "core/stages/control", "core/stages/estimator",
+           "core/stages/mixer", "core/stages/pid", "core/fastpass/fixedrate", "core/safety/arming",
+           "core/safety/failsafe", "core/stages/rc", "core/command/commander", "core/safety/supervisor",
+           "core/scheduler", "core/signals", "core/stages/output", "core/stages/receiver", "core/log/logger",
+           "core/flight", "core/command/motortest", "protocols/crsf", "protocols/dshot")
 PASSES = 300
 
 

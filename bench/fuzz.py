@@ -625,7 +625,7 @@ PULSES = (0, 1, 999, 1000, 1100, 1500, 2000, 2001, 0xFFFF)
 def cli_line(rng):
     global NAMES
     if NAMES is None:
-        from hoverfly.core.params import PARAMS
+        from hoverfly.core.config.params import PARAMS
 
         NAMES = [r[0] for r in PARAMS] + ["roll_rc_rate", "gyro_lowpass_hz", "failsafe_delay", "small_angle",
                                           "vbat_min_cell_voltage", "nonsense"]

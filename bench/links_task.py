@@ -1,4 +1,4 @@
-"""Cost of one run of the configuration links task (core/links.py), the work serial_update_hz schedules.
+"""Cost of one run of the configuration links task (core/links/task.py), the work serial_update_hz schedules.
 
 Runs under CPython and MicroPython; prints one JSON object: idle_us_per_run (both ports polled, no byte
 waiting: what every pass pays when serial_update_hz >= loop_hz), companion_us_per_run (one SET_RAW_RC and
@@ -15,8 +15,9 @@ import sys
 if sys.implementation.name == "micropython":
     import gc
 
-    for _name in ("core.params", "core.control", "core.scheduler", "core.flight", "protocols.msp",
-                  "protocols.maintenance", "core.mspserver", "core.maintserver", "core.cliserver", "core.links"):
+    for _name in ("core.config.params", "core.stages.control", "core.scheduler", "core.flight", "protocols.msp",
+                  "protocols.maintenance", "core.links.mspserver", "core.links.maintserver", "core.links.cliserver",
+                  "core.links.task"):
         gc.collect()
         try:
             __import__("hoverfly." + _name)
@@ -27,7 +28,7 @@ if sys.implementation.name == "micropython":
 from hoverfly.compat import collect_garbage, disable_gc, enable_gc, mem_alloc, ticks_diff, ticks_us
 from hoverfly.core.board import Board
 from hoverfly.core.flight import Flight
-from hoverfly.core.links import ConfigLinks
+from hoverfly.core.links.task import ConfigLinks
 from hoverfly.protocols import msp
 
 

@@ -33,8 +33,9 @@ import sys
 if sys.implementation.name == "micropython":
     import gc
 
-    for _name in ("params", "events", "filters", "control", "estimator", "mixer", "arming", "failsafe",
-                  "rc", "scheduler", "signals", "output", "receiver", "logger", "commander", "supervisor",
+    for _name in ("config.params", "events", "stages.filters", "stages.control", "stages.estimator",
+                  "stages.mixer", "safety.arming", "safety.failsafe", "stages.rc", "scheduler", "signals",
+                  "stages.output", "stages.receiver", "log.logger", "command.commander", "safety.supervisor",
                   "flight"):
         gc.collect()
         try:

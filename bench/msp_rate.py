@@ -27,7 +27,7 @@ from hoverfly.protocols import msp
 from hoverfly.sim.server import SimServer
 
 SEQ_CH = 7  # AUX4 (channel 8, 0-based 7): the sequence number's channel
-AP_ENABLED = 2  # core/autopilot.py's state once the pilot has enabled it
+AP_ENABLED = 2  # core/command/autopilot.py's state once the pilot has enabled it
 
 
 def _percentile(sorted_values, q):

@@ -1,4 +1,4 @@
-"""The cost of core/params.check on the configuration links' path (never the flight pass).
+"""The cost of core/config/params.check on the configuration links' path (never the flight pass).
 
 A CLI `set`, an MSP or maintenance write and each entry of the storage load go through check(): a
 valid value, a hostile one (inf, NaN, a huge int, text), and an unknown name with its "did you mean"
@@ -23,7 +23,7 @@ except ImportError:  # CPython
     def ticks_diff(a, b):
         return a - b
 
-from hoverfly.core.params import check
+from hoverfly.core.config.params import check
 
 ROUNDS = 20
 CASES = (

@@ -14,10 +14,10 @@ import sys
 from array import array
 
 from hoverfly.compat import IS_MICROPYTHON, collect_garbage, disable_gc, enable_gc, mem_alloc, ticks_diff, ticks_us
-from hoverfly.core.params import Params
-from hoverfly.core.rc import RcInput
-from hoverfly.core.receiver import Receiver
+from hoverfly.core.config.params import Params
 from hoverfly.core.signals import Setpoint
+from hoverfly.core.stages.rc import RcInput
+from hoverfly.core.stages.receiver import Receiver
 from hoverfly.protocols.crsf import encode_rc_frame
 
 RUNS = 7

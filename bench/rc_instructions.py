@@ -48,10 +48,10 @@ def _child(name, mode, calls):
         return
     # the stages alone: no flight to set up, so the runs' heaps (and the allocator's work) are alike
     from core_loop import BenchBoard
-    from hoverfly.core.params import Params
-    from hoverfly.core.rc import RcInput
-    from hoverfly.core.receiver import Receiver
+    from hoverfly.core.config.params import Params
     from hoverfly.core.signals import Setpoint
+    from hoverfly.core.stages.rc import RcInput
+    from hoverfly.core.stages.receiver import Receiver
 
     p = Params()
     if name == "rx_update":

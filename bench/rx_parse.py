@@ -5,7 +5,7 @@ Runs unchanged on CPython and MicroPython:
     MICROPYPATH=src:.frozen .venv/bin/micropython -X heapsize=192k bench/rx_parse.py
 Prints one JSON object: runtime, µs per frame for CRSF (26 bytes), SBUS (25), iBUS (32),
 CRSF with the frame split in two reads (the framer's assembly path), the whole receiver
-stage per CRSF frame (core/receiver.py: board read + decode + link watch, as the 500 Hz
+stage per CRSF frame (core/stages/receiver.py: board read + decode + link watch, as the 500 Hz
 receiver task runs it), and bytes the heap grew per CRSF/SBUS/iBUS frame and per receiver
 stage frame with the GC disabled (MicroPython; CPython reports 0).
 Best of several runs. The goal is CRSF <= 5 µs on CPython.
@@ -14,8 +14,8 @@ Best of several runs. The goal is CRSF <= 5 µs on CPython.
 import sys
 
 from hoverfly.compat import collect_garbage, disable_gc, enable_gc, mem_alloc, ticks_diff, ticks_us
-from hoverfly.core.params import Params
-from hoverfly.core.receiver import Receiver
+from hoverfly.core.config.params import Params
+from hoverfly.core.stages.receiver import Receiver
 from hoverfly.protocols import crsf, ibus, sbus
 
 RUNS = 7

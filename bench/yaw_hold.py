@@ -12,9 +12,9 @@ shared and noisy: the bytes are the figure that does not move).
 from array import array
 
 from hoverfly.compat import IS_MICROPYTHON, collect_garbage, disable_gc, enable_gc, mem_alloc, ticks_diff, ticks_us
-from hoverfly.core.params import Params
-from hoverfly.core.rc import RcInput
+from hoverfly.core.config.params import Params
 from hoverfly.core.signals import Setpoint
+from hoverfly.core.stages.rc import RcInput
 
 RUNS = 7
 PASSES = 2000 if IS_MICROPYTHON else 20000

@@ -9,9 +9,9 @@ lockstep, the bytes going through the configuration links' servers as a client's
 """
 
 
-from hoverfly.core.arming import ARM_SWITCH, THROTTLE
 from hoverfly.core.board import SERIAL_CONFIG, SERIAL_MAINT
-from hoverfly.core.links import attach
+from hoverfly.core.links.task import attach
+from hoverfly.core.safety.arming import ARM_SWITCH, THROTTLE
 from hoverfly.protocols import maintenance as mp
 from hoverfly.protocols import msp
 from hoverfly.sim.runner import SimRun
@@ -54,7 +54,7 @@ def _ground_run(script, duration_s=4.0, arm_at_s=None, storage_path=None):
     run.board.serial = ScriptedClient(run.board, script)
     storage = None
     if storage_path is not None:
-        from hoverfly.core.storage import Storage
+        from hoverfly.core.config.storage import Storage
 
         run.board.storage_path = storage_path
         storage = Storage(run.board)

@@ -11,16 +11,16 @@ import struct
 import pytest
 from configfakes import make_flight
 
-from hoverfly.core.bit import BIT_PARAMS
-from hoverfly.core.cliserver import CliServer
-from hoverfly.core.params import Params
-from hoverfly.core.storage import FORMAT, HEADER_BYTES, LOADED, MAGIC, MemoryStorageBoard, Storage, crc32
+from hoverfly.core.config.params import Params
+from hoverfly.core.config.storage import FORMAT, HEADER_BYTES, LOADED, MAGIC, MemoryStorageBoard, Storage, crc32
+from hoverfly.core.links.cliserver import CliServer
+from hoverfly.core.safety.bit import BIT_PARAMS
 from hoverfly.sim.server import SimServer
 from test_micropython import MICROPYTHON, run_micropython
 
 
 def record(entries, seq=1):
-    """A record in storage's byte format (core/storage.py) holding exactly `entries`, typed by the
+    """A record in storage's byte format (core/config/storage.py) holding exactly `entries`, typed by the
     Python value ('i' int, 'f' float, 's' text), with a good CRC: what a checked save never writes."""
     parts = []
     for name, v in entries:
@@ -138,8 +138,8 @@ def test_portable_storage_load_skips_hostile_entries_under_micropython():
     images = [list(record(GOOD + [bad])) for bad, _ in HOSTILE]
     code = """
 import json
-from hoverfly.core.params import Params
-from hoverfly.core.storage import Storage, MemoryStorageBoard
+from hoverfly.core.config.params import Params
+from hoverfly.core.config.storage import Storage, MemoryStorageBoard
 class B(MemoryStorageBoard):
     motor_count = 4
 out = []

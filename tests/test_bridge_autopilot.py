@@ -14,7 +14,7 @@ import pytest
 
 from hoverfly.boards.bridge_fw import Firmware
 from hoverfly.cli import main
-from hoverfly.core.autopilot import R_NO_AUTOPILOT, R_SWITCH_OFF
+from hoverfly.core.command.autopilot import R_NO_AUTOPILOT, R_SWITCH_OFF
 from hoverfly.protocols import bridge as B
 from hoverfly.sim.runner import SimRun, fly
 from test_micropython import MICROPYTHON

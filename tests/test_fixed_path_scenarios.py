@@ -1,6 +1,6 @@
 """Scenario flights on the Pico's path: `pid_math = fixed` on CPython, judged as the float flights are.
 
-On a Pico the pass runs the fixed-point stages (core/fixedimu.py, fixedatt.py, fixedrate.py and the
+On a Pico the pass runs the fixed-point stages (core/fastpass/fixedimu.py, fixedatt.py, fixedrate.py and the
 fixed parts of rc.py and output.py, through their generated viper twins); on CPython the scenario
 suite flies the float stages. Here a named subset of that suite, one that covers every flight mode
 (acro, angle, horizon, altitude hold, the autopilot) and every failsafe (receiver loss, its stages
@@ -20,12 +20,12 @@ import test_aux_modes as aux
 import test_flight_scenarios as flights
 import test_outputs_flight as outputs
 import test_safety_scenarios as safety
-from hoverfly.core.control import Controller
-from hoverfly.core.estimator import Mahony
-from hoverfly.core.filters import GyroFilter
-from hoverfly.core.fixedatt import FixedAttitude
-from hoverfly.core.fixedimu import FixedImuFilter
-from hoverfly.core.fixedrate import FixedRate
+from hoverfly.core.fastpass.fixedatt import FixedAttitude
+from hoverfly.core.fastpass.fixedimu import FixedImuFilter
+from hoverfly.core.fastpass.fixedrate import FixedRate
+from hoverfly.core.stages.control import Controller
+from hoverfly.core.stages.estimator import Mahony
+from hoverfly.core.stages.filters import GyroFilter
 from hoverfly.sim import runner
 from test_safety_scenarios import autopilot_run  # noqa: F401 - the autopilot flight, flown again here
 
@@ -145,8 +145,8 @@ def test_the_scenario_flies_as_well_on_the_fixed_point_path(module, name, kwargs
 
 def test_the_subset_covers_every_flight_mode_and_failsafe():
     # A new mode or failsafe procedure must get a flight here: the names the flight core gives them.
-    from hoverfly.core.control import MODE_NAMES
-    from hoverfly.core.params import FS_SWITCH_MODES
+    from hoverfly.core.config.params import FS_SWITCH_MODES
+    from hoverfly.core.stages.control import MODE_NAMES
 
     text = " ".join(name for _, name, _, _ in SUBSET)
     modes = {mode or "" for _, _, _, mode in SUBSET}

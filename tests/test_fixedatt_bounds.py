@@ -2,7 +2,7 @@
 
 On the RP2040/RP2350 the viper twin (accel/att.py) computes in 32-bit machine words that wrap
 silently; the unix VM's are 64-bit, so an overflow would not show in the twin test. Here the Python
-twin (core/fixedatt.py's `att_pass`, which the viper twin equals bit for bit) runs on extreme inputs
+twin (core/fastpass/fixedatt.py's `att_pass`, which the viper twin equals bit for bit) runs on extreme inputs
 and the largest gains with every product replaced by the viper twin's split product, checked, and
 every integer it computes from the inputs checked: any intermediate at 2**31 or beyond raises.
 """
@@ -13,7 +13,7 @@ import random
 import pytest
 from test_fixedatt import _io, _stages  # tests/portable (conftest puts it on the path)
 
-from hoverfly.core import fixedatt
+from hoverfly.core.fastpass import fixedatt
 from test_fixedrate_bounds import I32, _checked_mul
 
 _LIMIT = 1 << 31

@@ -2,7 +2,7 @@
 
 On the RP2040/RP2350 the viper twin (accel/rate.py) computes in 32-bit machine words that wrap
 silently; the unix VM's are 64-bit, so an overflow would not show in the twin test. Here the Python
-twin (core/fixedrate.py's `rate_pass`, which the viper twin equals bit for bit) runs on extreme
+twin (core/fastpass/fixedrate.py's `rate_pass`, which the viper twin equals bit for bit) runs on extreme
 inputs with every product replaced by the viper twin's split product, checked, and every integer it
 computes with checked: any intermediate at 2**31 or beyond raises.
 """
@@ -13,7 +13,7 @@ import random
 import pytest
 from test_fixedrate import _stages  # tests/portable (conftest puts it on the path)
 
-from hoverfly.core import fixedrate
+from hoverfly.core.fastpass import fixedrate
 
 _LIMIT = 1 << 31
 

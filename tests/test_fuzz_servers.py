@@ -28,9 +28,9 @@ from configfakes import make_flight  # noqa: E402
 
 from hoverfly.compat import ticks_add  # noqa: E402
 from hoverfly.core.board import SERIAL_CONFIG, SERIAL_MAINT  # noqa: E402
-from hoverfly.core.links import attach  # noqa: E402
-from hoverfly.core.params import PARAMS, check  # noqa: E402
-from hoverfly.core.storage import Storage  # noqa: E402
+from hoverfly.core.config.params import PARAMS, check  # noqa: E402
+from hoverfly.core.config.storage import Storage  # noqa: E402
+from hoverfly.core.links.task import attach  # noqa: E402
 from hoverfly.protocols import maintenance as mp  # noqa: E402
 from hoverfly.protocols import msp  # noqa: E402
 
@@ -297,10 +297,10 @@ def test_a_props_off_motor_test_over_msp_is_the_only_way_a_disarmed_motor_turns(
 @SERVER_FUZZ
 @given(data=st.data())
 def test_each_servers_own_feed_takes_any_bytes_and_then_answers_a_good_request(data):
-    from hoverfly.core.cliserver import CliServer
-    from hoverfly.core.links import ConfigPort
-    from hoverfly.core.maintserver import MaintServer
-    from hoverfly.core.mspserver import MspServer
+    from hoverfly.core.links.cliserver import CliServer
+    from hoverfly.core.links.maintserver import MaintServer
+    from hoverfly.core.links.mspserver import MspServer
+    from hoverfly.core.links.task import ConfigPort
 
     rig = Rig()
     f, st_ = rig.flight, rig.storage

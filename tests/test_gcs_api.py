@@ -434,7 +434,7 @@ def test_sticks_that_stop_in_flight_end_in_the_controllers_failsafe(sim, gcs_mai
 def _fly_override(maint_override, stop_at_s, duration_s=14.0):
     """A lockstep sim whose radio holds the arm switch off, and a maintenance client sending the seed-001
     override at 50 Hz: arm switch off until 1.5 s, then armed at zero throttle, up to a 2 m hover, until stop_at_s."""
-    from hoverfly.core.maintserver import MaintServer
+    from hoverfly.core.links.maintserver import MaintServer
     from hoverfly.protocols import maintenance as mp
     from hoverfly.sim.runner import SimRun
 

@@ -13,7 +13,7 @@ import pytest
 
 from hoverfly.cli import main
 from hoverfly.cli_params import restore_changes
-from hoverfly.core.params import PARAMS, row
+from hoverfly.core.config.params import PARAMS, row
 from hoverfly.gcs.link import CliSession, MaintClient, MspClient, Refused, open_link
 from hoverfly.protocols import maintenance as mp
 from hoverfly.protocols import msp

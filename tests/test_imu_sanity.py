@@ -10,10 +10,10 @@ from array import array
 
 import pytest
 
-from hoverfly.core.arming import NO_GYRO
-from hoverfly.core.estimator import GyroCalibration
-from hoverfly.core.failsafe import FAULT_IMU_FROZEN, FAULT_IMU_NONFINITE, FAULT_NONE, FaultWatch
-from hoverfly.core.params import Params
+from hoverfly.core.config.params import Params
+from hoverfly.core.safety.arming import NO_GYRO
+from hoverfly.core.safety.failsafe import FAULT_IMU_FROZEN, FAULT_IMU_NONFINITE, FAULT_NONE, FaultWatch
+from hoverfly.core.stages.estimator import GyroCalibration
 from hoverfly.sim.runner import SimRun
 from hoverfly.sim.scenario import parse_scenario
 

@@ -1,4 +1,4 @@
-"""The configuration links (core/links.py): a session ends with its link, no request is dropped, the
+"""The configuration links (core/links/task.py): a session ends with its link, no request is dropped, the
 config port tells MSP, CLI and maintenance frames apart, and MSP_REBOOT restarts `hoverfly sim`.
 
 Over real sockets on 127.0.0.1 to an in-process `hoverfly sim` (ports chosen by the OS), and on the
@@ -17,10 +17,10 @@ from hypothesis import strategies as st
 sys.path.insert(0, str(Path(__file__).parent / "portable"))
 from configfakes import make_flight  # noqa: E402
 
-from hoverfly.core.arming import MAINTENANCE, session_flags  # noqa: E402
 from hoverfly.core.board import SERIAL_CONFIG, SERIAL_MAINT  # noqa: E402
-from hoverfly.core.links import PARTIAL_FRAME_US, REQUESTS_PER_RUN, ConfigLinks, ConfigPort  # noqa: E402
-from hoverfly.core.mspserver import CONFIG_MSP  # noqa: E402
+from hoverfly.core.links.mspserver import CONFIG_MSP  # noqa: E402
+from hoverfly.core.links.task import PARTIAL_FRAME_US, REQUESTS_PER_RUN, ConfigLinks, ConfigPort  # noqa: E402
+from hoverfly.core.safety.arming import MAINTENANCE, session_flags  # noqa: E402
 from hoverfly.protocols import maintenance as mp  # noqa: E402
 from hoverfly.protocols import msp  # noqa: E402
 from hoverfly.sim.server import SimServer  # noqa: E402

@@ -16,7 +16,7 @@ import pytest
 from pyulog import ULog
 
 from hoverfly.cli import main
-from hoverfly.core.logger import FAST_TOPICS, SLOW_TOPICS
+from hoverfly.core.log.logger import FAST_TOPICS, SLOW_TOPICS
 from hoverfly.logs.data import load
 from hoverfly.logs.ulogread import LogReadError, read_summary
 from hoverfly.sim.runner import fly

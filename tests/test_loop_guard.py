@@ -10,8 +10,8 @@ import pytest
 
 from hoverfly.core import scheduler
 from hoverfly.core.board import SERIAL_CONFIG
-from hoverfly.core.cliserver import CliServer
-from hoverfly.core.links import attach
+from hoverfly.core.links.cliserver import CliServer
+from hoverfly.core.links.task import attach
 from hoverfly.core.scheduler import Scheduler
 from hoverfly.sim.runner import SimRun
 

@@ -13,9 +13,9 @@ from hypothesis import strategies as st
 sys.path.insert(0, str(Path(__file__).parent / "portable"))
 from configfakes import make_flight  # noqa: E402
 
-from hoverfly.core.maintserver import ERROR_CMD, MaintServer  # noqa: E402
-from hoverfly.core.params import Params  # noqa: E402
-from hoverfly.core.storage import Storage  # noqa: E402
+from hoverfly.core.config.params import Params  # noqa: E402
+from hoverfly.core.config.storage import Storage  # noqa: E402
+from hoverfly.core.links.maintserver import ERROR_CMD, MaintServer  # noqa: E402
 from hoverfly.protocols import maintenance as mp  # noqa: E402
 
 

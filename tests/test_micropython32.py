@@ -58,12 +58,12 @@ def test_portable_tests_pass_on_32_bit_micropython(mp32):
     assert " 0 failed" in res.stdout
 
 
-# The fixed-point pass's product c * x / 2**s (core/fixedrate.py `_mul`, the reference) with |c| < 2**15 and
+# The fixed-point pass's product c * x / 2**s (core/fastpass/fixedrate.py `_mul`, the reference) with |c| < 2**15 and
 # |x| < 2**30, in viper: whole, as the Python reads, and split on x's 16-bit halves, as the generated viper
 # stages write it. Each line: c x s reference whole split.
 _PRODUCTS = """
 import micropython
-from hoverfly.core.fixedrate import _mul
+from hoverfly.core.fastpass.fixedrate import _mul
 
 
 @micropython.viper

@@ -3,12 +3,12 @@ the scripted companion driving the flight through the links task, not a direct c
 
 The scenario tests fly `autopilot` in lockstep with the companion wired to the CLI/MSP port; a ground
 poller adds its own MSP2_HOVERFLY_AUTOPILOT request every 100 ms and reads what the companion would.
-The bench tests feed bytes into core.links.ConfigLinks over the same port and read the reply bytes.
+The bench tests feed bytes into core.links.task.ConfigLinks over the same port and read the reply bytes.
 """
 
 import pytest
 
-from hoverfly.core.autopilot import (
+from hoverfly.core.command.autopilot import (
     AP_ENABLED,
     AP_OFF,
     AP_SILENT,
@@ -26,7 +26,7 @@ from hoverfly.core.autopilot import (
     RES_TAKEN,
     RES_WAIT,
 )
-from hoverfly.core.links import ConfigLinks, attach
+from hoverfly.core.links.task import ConfigLinks, attach
 from hoverfly.protocols import msp
 from hoverfly.sim.companion import CompanionPort
 from hoverfly.sim.runner import SimRun

@@ -10,7 +10,7 @@ import math
 import pytest
 
 from hoverfly.cli import main
-from hoverfly.core.output import PROTOCOLS
+from hoverfly.core.stages.output import PROTOCOLS
 from hoverfly.sim.runner import SimRun, fly
 from hoverfly.sim.scenario import parse_scenario
 

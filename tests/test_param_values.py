@@ -1,4 +1,4 @@
-"""Parameter values enter through one check (core/params.check): finite numbers, whole numbers where the
+"""Parameter values enter through one check (core/config/params.check): finite numbers, whole numbers where the
 table says so, ranges, choices, the same names and aliases on every surface, and reboot parameters
 stored but never applied to a running flight (issues 30 and 25)."""
 
@@ -8,10 +8,10 @@ from hypothesis import strategies as st
 
 from hoverfly.cli import main
 from hoverfly.cli_params import parse_assignment
-from hoverfly.core.cliserver import CliServer
-from hoverfly.core.maintserver import ERROR_CMD, MaintServer
-from hoverfly.core.params import ALIASES, INDEX, PARAMS, Params, check, check_value, is_choice, nearest
-from hoverfly.core.storage import Storage, parse_record
+from hoverfly.core.config.params import ALIASES, INDEX, PARAMS, Params, check, check_value, is_choice, nearest
+from hoverfly.core.config.storage import Storage, parse_record
+from hoverfly.core.links.cliserver import CliServer
+from hoverfly.core.links.maintserver import ERROR_CMD, MaintServer
 from hoverfly.errors import UserError
 from hoverfly.protocols import maintenance as mp
 from hoverfly.sim.runner import SimRun, build_params
@@ -267,7 +267,7 @@ def test_check_never_raises_under_micropython():
     if MICROPYTHON is None:
         return
     code = """
-from hoverfly.core.params import PARAMS, ALIASES, check, Params
+from hoverfly.core.config.params import PARAMS, ALIASES, check, Params
 values = (float("inf"), float("-inf"), float("nan"), 1e308, -1e308, 10 ** 400, -(10 ** 400), "inf", "nan", "1e308",
           "1e400", "9" * 400, "", " 12 ", "0x10", None, b"12", [1], {"a": 1}, (1, 2), True, 3, 3.5, "hexx", "DROP")
 names = [r[0] for r in PARAMS] + [a for a in ALIASES] + ["p_rol", "", None, 7]
@@ -305,7 +305,7 @@ def _full_distance(a, b):
 @settings(max_examples=500, deadline=None)
 @given(st.text("ab_cd", max_size=12), st.text("ab_cd", max_size=12), st.integers(0, 4))
 def test_the_banded_distance_is_the_edit_distance_up_to_its_limit(a, b, limit):
-    from hoverfly.core.params import _distance
+    from hoverfly.core.config.params import _distance
 
     full = _full_distance(a, b)
     assert _distance(a, b, limit) == (full if full <= limit else limit + 1)

@@ -1,4 +1,4 @@
-"""The fixed-point stick shaping (core/rc.py `rc_pass`) stays inside 32-bit words, whatever it holds.
+"""The fixed-point stick shaping (core/stages/rc.py `rc_pass`) stays inside 32-bit words, whatever it holds.
 
 On the RP2040/RP2350 the viper twin (accel/rc.py) computes in 32-bit machine words that wrap
 silently; the unix VM's are 64-bit, so an overflow would not show in the twin test. The Python twin
@@ -9,8 +9,8 @@ integer it computes checked: any intermediate at 2**31 or beyond raises.
 
 import itertools
 
-from hoverfly.core import rc
-from hoverfly.core.rc import CO_C, CO_E, CO_K, CO_SIZE, CO_T, S_S1, S_X, S_Y, ST_SIZE
+from hoverfly.core.stages import rc
+from hoverfly.core.stages.rc import CO_C, CO_E, CO_K, CO_SIZE, CO_T, S_S1, S_X, S_Y, ST_SIZE
 from test_fixedrate_bounds import I32
 
 _ONE20 = 1 << 20

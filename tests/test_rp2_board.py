@@ -116,7 +116,7 @@ def test_rp2_main_loop_hovers_with_the_receiver_parsed_on_core_1(tmp_path):
     # board's own loop flies the hover, then it holds it as well as with the receiver parsed in the loop's
     # task, every frame reaching the loop through the handover and the loop's telemetry going back out
     body = ("world.at(2.0, arm)\nworld.at(2.5, hold(2.0))\n"
-            "from hoverfly.core.rxcore import W_POLLS, W_RUNNING\n"
+            "from hoverfly.core.stages.rxcore import W_POLLS, W_RUNNING\n"
             "def extra(flight):\n"
             "    w = board._rx_link.words\n"
             "    return {'rx_frames': flight.receiver.frames, 'polls': w[W_POLLS], 'running': w[W_RUNNING],\n"
@@ -269,7 +269,7 @@ def test_parameters_round_trip_through_the_flash_file_under_micropython(tmp_path
     # given parameters saved through the two-slot store into the board's file before boot,
     # when main boots, then the flight flies them; and a save from the running flight (as the
     # CLI's `save`) lands in the file and loads back, with no temporary file left behind
-    body = ("from hoverfly.core.params import Params\nfrom hoverfly.core.storage import Storage\n"
+    body = ("from hoverfly.core.config.params import Params\nfrom hoverfly.core.config.storage import Storage\n"
             "p = Params()\np.set('p_roll', 55)\nassert Storage(board).save(p) is None\n"
             "def extra(flight):\n"
             "    flight.params.set('p_pitch', 66)\n"
@@ -359,8 +359,8 @@ def test_pwm_receiver_captures_pulses_by_pin_irq(fakes):
         b.clock.t = t + w
         p.fire(0)
         t += 2500
-    from hoverfly.core.params import Params
-    from hoverfly.core.receiver import Receiver
+    from hoverfly.core.config.params import Params
+    from hoverfly.core.stages.receiver import Receiver
 
     params = Params()
     params.set("rx_provider", "pwm")
@@ -405,7 +405,7 @@ def test_dshot_words_go_to_the_state_machines_and_stop_when_blind(fakes):
 
 
 def _params(**values):
-    from hoverfly.core.params import Params
+    from hoverfly.core.config.params import Params
 
     p = Params()
     for k, v in values.items():

@@ -199,7 +199,7 @@ def _board(rp2, **values):
     from machine import attach_i2c
 
     from hoverfly.boards.rp2.board import Rp2Board
-    from hoverfly.core.params import Params
+    from hoverfly.core.config.params import Params
 
     class Clock:
         t = 0
@@ -221,7 +221,7 @@ def _board(rp2, **values):
 
 
 def _board_params(**values):
-    from hoverfly.core.params import Params
+    from hoverfly.core.config.params import Params
 
     p = Params()
     for k, v in values.items():
@@ -242,7 +242,7 @@ def test_board_telemetry_gives_each_motor_its_rpm_within_1pct(fakes):
     # given motor_order 2143, 14-pole motors and ESCs on lines 1..4 spinning at known eRPM,
     # when the core writes motors and reads telemetry, then the OutputStage decodes each
     # motor's own RPM (eRPM / 7) within 1 %, and a second read without new frames is not fresh
-    from hoverfly.core.output import OutputStage
+    from hoverfly.core.stages.output import OutputStage
 
     escs = _escs(fakes)
     b, params = _board(fakes, dshot_bidir=1, motor_order=2143, motor_poles=14)
@@ -269,7 +269,7 @@ def test_board_telemetry_with_one_silent_esc_counts_it_and_never_crashes(fakes):
     # given one ESC that stopped answering, when passes go on, then the others' replies are
     # fresh, the silent one's code is 0 (a decoder error, counted) and the board counts it;
     # with every ESC silent nothing reads fresh
-    from hoverfly.core.output import OutputStage
+    from hoverfly.core.stages.output import OutputStage
 
     escs = _escs(fakes)
     b, params = _board(fakes, dshot_bidir=1)

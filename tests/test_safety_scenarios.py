@@ -5,7 +5,7 @@ Flown in lockstep on the simulator with a fixed seed and judged as a pilot would
 
 import pytest
 
-from hoverfly.core.arming import REASONS, reason_bit
+from hoverfly.core.safety.arming import REASONS, reason_bit
 from hoverfly.sim.runner import SimRun, fly
 from hoverfly.sim.scenario import parse_scenario
 
@@ -226,9 +226,9 @@ def test_who_flies_word_always_agrees_with_the_failsafe_and_autopilot_states(sce
     # writes its bit at each change of stage, the commander the autopilot's after each call that can change it.
     # At the end of every pass the word must say what the failsafe and autopilot states say, through a whole
     # scenario of autopilot enabling, overrides, latches, silence, link loss and restore.
-    from hoverfly.core.autopilot import AP_ENABLED
-    from hoverfly.core.commander import SOURCE_AUTOPILOT, SOURCE_FAILSAFE
-    from hoverfly.core.failsafe import IDLE
+    from hoverfly.core.command.autopilot import AP_ENABLED
+    from hoverfly.core.command.commander import SOURCE_AUTOPILOT, SOURCE_FAILSAFE
+    from hoverfly.core.safety.failsafe import IDLE
 
     run = SimRun("5inch", scenario, seed=3)
     seen = set()

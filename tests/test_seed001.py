@@ -12,8 +12,8 @@ import struct
 
 import pytest
 
-from hoverfly.core.params import Params
-from hoverfly.core.storage import Storage, crc32
+from hoverfly.core.config.params import Params
+from hoverfly.core.config.storage import Storage, crc32
 from hoverfly.errors import UserError
 from hoverfly.sim.runner import SimRun, build_params
 from hoverfly.sim.scenario import load_scenario
@@ -176,7 +176,7 @@ def test_the_documented_set_is_the_one_the_scenario_flies():
 def test_the_documented_set_goes_through_the_cli_as_pasted():
     from configfakes import make_flight
 
-    from hoverfly.core.cliserver import CliServer
+    from hoverfly.core.links.cliserver import CliServer
 
     flight, _ = make_flight()
     cli = CliServer(flight)
@@ -211,7 +211,7 @@ class _Blob:
 
 
 def _old_record(entries, seq=1):
-    """A record as firmware before issue 25 wrote it (core/storage.py's layout), with rows since retired."""
+    """A record as firmware before issue 25 wrote it (core/config/storage.py's layout), with rows since retired."""
     parts = []
     for name, value in entries:
         nb = name.encode()

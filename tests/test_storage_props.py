@@ -6,8 +6,8 @@ import random
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from hoverfly.core.params import PARAMS, Params
-from hoverfly.core.storage import LOST, SLOT_BYTES, MemoryStorageBoard, Storage, parse_record
+from hoverfly.core.config.params import PARAMS, Params
+from hoverfly.core.config.storage import LOST, SLOT_BYTES, MemoryStorageBoard, Storage, parse_record
 
 # rc_map is a permutation of 12345678: most numbers in its range are refused (params.rc_map_error)
 _INT_ROWS = [r for r in PARAMS if isinstance(r[1], int) and not isinstance(r[1], bool) and r[3] > r[2]

@@ -4,8 +4,8 @@ import json
 import sys
 
 from hoverfly.cli_live import event_text
-from hoverfly.core.output import PROTOCOLS
-from hoverfly.core.params import check
+from hoverfly.core.config.params import check
+from hoverfly.core.stages.output import PROTOCOLS
 from hoverfly.errors import UserError
 from hoverfly.logs.steps import step_line
 

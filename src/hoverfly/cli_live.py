@@ -10,7 +10,7 @@ the work per pass is a counter unless a tenth of a second has passed.
 import math
 import time
 
-from hoverfly.core.control import MODE_NAMES
+from hoverfly.core.stages.control import MODE_NAMES
 
 _DEG = 180.0 / math.pi
 _REFRESH_S = 0.1

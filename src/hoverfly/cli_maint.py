@@ -13,11 +13,11 @@ What each command does in hoverfly, units and capping: docs/maintenance-protocol
 import json
 import time
 
-from hoverfly.core.params import check_value
+from hoverfly.core.config.params import check_value
 from hoverfly.errors import UserError
 from hoverfly.protocols import maintenance as mp
 
-MOTOR_REFRESH_S = 0.25  # the motor test expires after 1 s without a refresh (core/motortest.py)
+MOTOR_REFRESH_S = 0.25  # the motor test expires after 1 s without a refresh (core/command/motortest.py)
 
 _AXES = ("roll", "pitch", "yaw")
 _STICKS = ("thr", "roll", "pitch")  # commands 12-14 (the seed has no yaw stick filter)
@@ -203,7 +203,7 @@ def run_motors(args):
 
 def motor_notes(commanded_us, read_us):
     """Why a motor ran at another pulse than asked: the controller carries the command out at its limit
-    (core/maintserver.py) and the seed's reply has no room for the reason, so it is named here."""
+    (core/links/maintserver.py) and the seed's reply has no room for the reason, so it is named here."""
     notes = []
     for k, (want, got) in enumerate(zip(commanded_us, read_us, strict=True)):
         if not isinstance(got, int) or got == want or want <= 1000:
@@ -223,7 +223,7 @@ def run_set(args):
 
     name = args.name.strip().lower()
     if name not in settable():
-        from hoverfly.core.params import nearest
+        from hoverfly.core.config.params import nearest
 
         guess = nearest(name, settable())
         raise UserError("'%s' cannot be set over the maintenance protocol%s; it carries: %s"

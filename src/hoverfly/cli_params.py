@@ -1,6 +1,6 @@
 """`hoverfly params`: the parameter table (schema, list) and a controller's parameters over a link.
 
-`schema` and `list` read the table (core/params.py). `get`, `set`, `dump`, `diff`, `save` and
+`schema` and `list` read the table (core/config/params.py). `get`, `set`, `dump`, `diff`, `save` and
 `restore` talk to a controller through its CLI (gcs/link.py CliSession on `--port URL`), as a
 Betaflight user would by hand: a `diff` or `dump` file is a list of `set` lines, and `restore`
 replays the ones that differ from the controller after showing them (`--preview` shows only;
@@ -11,8 +11,8 @@ sent, and a refusal from the controller (`###ERROR: ...###`) becomes a one-line 
 import json
 import sys
 
-from hoverfly.core.cliserver import format_value
-from hoverfly.core.params import PARAMS, REBOOT, check, check_value, is_choice, row
+from hoverfly.core.config.params import PARAMS, REBOOT, check, check_value, is_choice, row
+from hoverfly.core.links.cliserver import format_value
 from hoverfly.errors import UserError
 
 

@@ -1,6 +1,6 @@
 """The fast pass generator: `@micropython.viper` modules made from the fixed-point Python stages.
 
-Host code (CPython's `ast`), never on the device. A fixed-point stage (core/fixedimu.py, ...) holds the
+Host code (CPython's `ast`), never on the device. A fixed-point stage (core/fastpass/fixedimu.py, ...) holds the
 one source of its arithmetic: a kernel function on integer arrays, marked by a `# fastpass:` line, which
 runs as it is on CPython and MicroPython and is the reference the tests hold the generated code to. This
 module turns that kernel, and the method that calls it, into a viper function that does the same integer
@@ -24,11 +24,11 @@ import sys
 PACKAGE = pathlib.Path(__file__).resolve().parent
 # the generated module (hoverfly/accel/<name>.py) -> the stage module it is generated from
 STAGES = {
-    "imufilter": "hoverfly.core.fixedimu",
-    "rate": "hoverfly.core.fixedrate",
-    "att": "hoverfly.core.fixedatt",
+    "imufilter": "hoverfly.core.fastpass.fixedimu",
+    "rate": "hoverfly.core.fastpass.fixedrate",
+    "att": "hoverfly.core.fastpass.fixedatt",
     "sched": "hoverfly.core.scheduler",
-    "output": "hoverfly.core.output",
+    "output": "hoverfly.core.stages.output",
 }
 DIRECTIVE = "# fastpass:"
 HASH_LINE = "# fastgen source sha256: "

@@ -2,8 +2,8 @@
 a Flight built on it (optionally with recording stand-ins for the SAFETY/OUTPUTS seams)."""
 
 from hoverfly.core.board import Board
+from hoverfly.core.config.storage import MemoryStorageBoard
 from hoverfly.core.flight import Flight
-from hoverfly.core.storage import MemoryStorageBoard
 
 BOOT_US = 1000
 

@@ -1,7 +1,7 @@
 """What the fast-path tests (test_fast_paths, test_glue_fast_paths) share: deterministic inputs
 and a parameter set with overrides. Portable: imported under pytest and tests/portable/mprun.py."""
 
-from hoverfly.core.params import Params
+from hoverfly.core.config.params import Params
 
 
 class Rand:

@@ -3,7 +3,9 @@
 from array import array
 
 from hoverfly.compat import ticks_add
-from hoverfly.core.arming import (
+from hoverfly.core.config.params import Params
+from hoverfly.core.events import DISARM_FAILSAFE, DISARM_LANDED, EventLog
+from hoverfly.core.safety.arming import (
     ARM_SWITCH,
     CLI,
     MAINTENANCE,
@@ -15,9 +17,8 @@ from hoverfly.core.arming import (
     reason_names,
     session_flags,
 )
-from hoverfly.core.bit import BIT_STORAGE, BuiltInTest
-from hoverfly.core.events import DISARM_FAILSAFE, DISARM_LANDED, EventLog
-from hoverfly.core.failsafe import (
+from hoverfly.core.safety.bit import BIT_STORAGE, BuiltInTest
+from hoverfly.core.safety.failsafe import (
     FAULT_IMU_FROZEN,
     FAULT_IMU_SATURATED,
     FAULT_NONE,
@@ -27,7 +28,6 @@ from hoverfly.core.failsafe import (
     Failsafe,
     FaultWatch,
 )
-from hoverfly.core.params import Params
 
 
 def _arming(**params):

@@ -5,9 +5,9 @@ receiver task. Portable."""
 
 from configfakes import FakeBoard
 
-from hoverfly.core.arming import THROTTLE
 from hoverfly.core.events import EV_ARMED, EV_ARMING_BLOCKED, EV_DISARMED
 from hoverfly.core.flight import Flight
+from hoverfly.core.safety.arming import THROTTLE
 from hoverfly.protocols.crsf import encode_rc_frame
 
 

@@ -2,8 +2,7 @@
 
 from array import array
 
-from hoverfly.core.arming import Arming
-from hoverfly.core.autopilot import (
+from hoverfly.core.command.autopilot import (
     AP_ENABLED,
     AP_OFF,
     AP_SILENT,
@@ -13,8 +12,9 @@ from hoverfly.core.autopilot import (
     PRIV_THROTTLE_LATCH,
     Autopilot,
 )
+from hoverfly.core.config.params import Params
 from hoverfly.core.events import EventLog
-from hoverfly.core.params import Params
+from hoverfly.core.safety.arming import Arming
 from hoverfly.core.signals import Setpoint
 
 

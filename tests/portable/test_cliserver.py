@@ -2,9 +2,9 @@
 
 from configfakes import make_flight
 
-from hoverfly.core.cliserver import CliServer
-from hoverfly.core.params import Params
-from hoverfly.core.storage import Storage
+from hoverfly.core.config.params import Params
+from hoverfly.core.config.storage import Storage
+from hoverfly.core.links.cliserver import CliServer
 
 
 def _cli():

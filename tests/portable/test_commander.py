@@ -2,9 +2,8 @@
 source word written where each source's say starts and ends, and the I-term and air-mode start. Real stages
 around it (RcInput, Arming, Failsafe, Autopilot, Controller), time injected. Portable."""
 
-from hoverfly.core.arming import Arming
-from hoverfly.core.autopilot import AP_ENABLED, AP_SILENT, AP_WAIT, Autopilot
-from hoverfly.core.commander import (
+from hoverfly.core.command.autopilot import AP_ENABLED, AP_SILENT, AP_WAIT, Autopilot
+from hoverfly.core.command.commander import (
     FLIER_AUTOPILOT,
     FLIER_FAILSAFE,
     FLIER_MOTOR_TEST,
@@ -14,12 +13,13 @@ from hoverfly.core.commander import (
     SOURCE_FAILSAFE,
     Commander,
 )
-from hoverfly.core.control import MODE_ACRO, MODE_ANGLE, Controller
+from hoverfly.core.config.params import Params
 from hoverfly.core.events import EV_AIRMODE, EV_MODE, EventLog
-from hoverfly.core.failsafe import IDLE, STAGE1, STAGE2, Failsafe
-from hoverfly.core.params import Params
-from hoverfly.core.rc import RcInput
+from hoverfly.core.safety.arming import Arming
+from hoverfly.core.safety.failsafe import IDLE, STAGE1, STAGE2, Failsafe
 from hoverfly.core.signals import Signals
+from hoverfly.core.stages.control import MODE_ACRO, MODE_ANGLE, Controller
+from hoverfly.core.stages.rc import RcInput
 
 T0 = 1000000
 

@@ -33,7 +33,7 @@ def _existing_names(count):
     MicroPython's qstr pools, which never give memory back (a few hundred split the heap enough that the
     logger test's 270 KB buffer no longer fits a 4 MB heap)."""
     import hoverfly.core.flight as flight
-    import hoverfly.core.logger as logger
+    import hoverfly.core.log.logger as logger
 
     names = []
     for source in (flight, flight.Flight, logger, logger.Logger):

@@ -6,14 +6,14 @@ Portable: pytest runs them on CPython and tests/portable/mprun.py under MicroPyt
 import math
 from array import array
 
-from hoverfly.core.control import MODE_ACRO, MODE_ANGLE, Controller
-from hoverfly.core.estimator import Attitude, GyroCalibration, Mahony
-from hoverfly.core.filters import AlphaBeta, Biquad, LowPass, Pt1, Pt2
-from hoverfly.core.mixer import MIXER_TABLES, Mixer
-from hoverfly.core.params import PARAMS, Params, check_value
-from hoverfly.core.pid import AxisPid
-from hoverfly.core.rates import ActualRates
+from hoverfly.core.config.params import PARAMS, Params, check_value
 from hoverfly.core.signals import Setpoint
+from hoverfly.core.stages.control import MODE_ACRO, MODE_ANGLE, Controller
+from hoverfly.core.stages.estimator import Attitude, GyroCalibration, Mahony
+from hoverfly.core.stages.filters import AlphaBeta, Biquad, LowPass, Pt1, Pt2
+from hoverfly.core.stages.mixer import MIXER_TABLES, Mixer
+from hoverfly.core.stages.pid import AxisPid
+from hoverfly.core.stages.rates import ActualRates
 
 DEG = math.pi / 180.0
 

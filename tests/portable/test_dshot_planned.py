@@ -18,8 +18,8 @@ from fastpathkit import heap_bytes
 from test_viper_twins import Lcg
 
 from hoverfly.compat import IS_MICROPYTHON, ticks_add
-from hoverfly.core.output import OutputEncoder
-from hoverfly.core.params import Params
+from hoverfly.core.config.params import Params
+from hoverfly.core.stages.output import OutputEncoder
 from hoverfly.protocols import dshot
 from hoverfly.protocols.dshot import (
     PLAN_FLOAT32,

@@ -13,13 +13,13 @@ from array import array
 from fastpathkit import Rand as _Rand
 from fastpathkit import params as _params
 
-from hoverfly.core.control import MODE_ACRO, MODE_ANGLE, MODE_HORIZON, Controller
-from hoverfly.core.estimator import Attitude, Mahony
-from hoverfly.core.filters import AccelFilter, Biquad, GyroFilter, LowPass, Pt1, Pt2
-from hoverfly.core.mixer import MIXER_TABLES, Mixer
-from hoverfly.core.pid import AxisPid
-from hoverfly.core.rates import ActualRates
 from hoverfly.core.signals import Setpoint
+from hoverfly.core.stages.control import MODE_ACRO, MODE_ANGLE, MODE_HORIZON, Controller
+from hoverfly.core.stages.estimator import Attitude, Mahony
+from hoverfly.core.stages.filters import AccelFilter, Biquad, GyroFilter, LowPass, Pt1, Pt2
+from hoverfly.core.stages.mixer import MIXER_TABLES, Mixer
+from hoverfly.core.stages.pid import AxisPid
+from hoverfly.core.stages.rates import ActualRates
 
 _G = 9.80665
 

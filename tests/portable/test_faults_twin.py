@@ -1,4 +1,4 @@
-"""FaultWatch.check_imu's twins (core/failsafe.py `check_imu_python`, accel/faults.py `check_imu` on
+"""FaultWatch.check_imu's twins (core/safety/failsafe.py `check_imu_python`, accel/faults.py `check_imu` on
 MicroPython): the same faults from the same samples, frozen and saturated runs, recoveries and
 limits included. Portable: on CPython the Python twin is the method and the test checks that.
 """
@@ -8,8 +8,8 @@ from array import array
 from test_fixedrate import Lcg  # the same deterministic numbers on every port
 
 from hoverfly.compat import IS_MICROPYTHON
-from hoverfly.core import failsafe
-from hoverfly.core.failsafe import (
+from hoverfly.core.safety import failsafe
+from hoverfly.core.safety.failsafe import (
     FAULT_IMU_FROZEN,
     FAULT_IMU_NONFINITE,
     FAULT_IMU_SATURATED,

@@ -1,8 +1,8 @@
-"""The fixed-point attitude estimator (core/fixedatt.py) against the float Mahony, and its viper twin.
+"""The fixed-point attitude estimator (core/fastpass/fixedatt.py) against the float Mahony, and its viper twin.
 
 Portable: under MicroPython (tests/portable/mprun.py) the viper twin (accel/att.py) must be the one
 chosen and must give the Python twin's bits on every output and state word, NaN, infinite and huge
-inputs included; on both runtimes the fixed estimator must follow the float one (core/estimator.py)
+inputs included; on both runtimes the fixed estimator must follow the float one (core/stages/estimator.py)
 over a minute of flying, and its angles must be the float stage's for the same quaternion.
 """
 
@@ -13,9 +13,9 @@ from fastpathkit import heap_bytes
 from test_fixedrate import Lcg  # the same deterministic numbers on every port
 
 from hoverfly.compat import IS_MICROPYTHON
-from hoverfly.core import fixedatt
-from hoverfly.core.estimator import COS_TILT, PITCH, ROLL, YAW, Attitude, Mahony
-from hoverfly.core.params import Params
+from hoverfly.core.config.params import Params
+from hoverfly.core.fastpass import fixedatt
+from hoverfly.core.stages.estimator import COS_TILT, PITCH, ROLL, YAW, Attitude, Mahony
 
 if IS_MICROPYTHON:
     from hoverfly.accel import att as att_viper

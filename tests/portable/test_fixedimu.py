@@ -1,4 +1,4 @@
-"""The fixed-point IMU filters (core/fixedimu.py) against the float gyro and accelerometer filters, and
+"""The fixed-point IMU filters (core/fastpass/fixedimu.py) against the float gyro and accelerometer filters, and
 their viper twin.
 
 Portable: under MicroPython (tests/portable/mprun.py) the viper twin (accel/imufilter.py) must be
@@ -12,10 +12,10 @@ from fastpathkit import heap_bytes
 from test_fixedrate import Lcg  # the same deterministic numbers on every port
 
 from hoverfly.compat import IS_MICROPYTHON
-from hoverfly.core import fixedimu
-from hoverfly.core.filters import AccelFilter, GyroFilter
-from hoverfly.core.params import Params
+from hoverfly.core.config.params import Params
+from hoverfly.core.fastpass import fixedimu
 from hoverfly.core.signals import Signals
+from hoverfly.core.stages.filters import AccelFilter, GyroFilter
 
 if IS_MICROPYTHON:
     from hoverfly.accel import imufilter as imu_viper

@@ -1,4 +1,4 @@
-"""The fixed-point rate loop (core/fixedrate.py) against the float controller and mixer, and its viper twin.
+"""The fixed-point rate loop (core/fastpass/fixedrate.py) against the float controller and mixer, and its viper twin.
 
 Portable: under MicroPython (tests/portable/mprun.py) the viper twin (accel/rate.py) must be the one
 chosen and must give the Python twin's bits on every output; on both runtimes the fixed pass must
@@ -9,11 +9,11 @@ are checked on CPython by tests/test_fixedrate_bounds.py.
 from array import array
 
 from hoverfly.compat import IS_MICROPYTHON
-from hoverfly.core import fixedrate
-from hoverfly.core.control import Controller
-from hoverfly.core.mixer import Mixer
-from hoverfly.core.params import Params
+from hoverfly.core.config.params import Params
+from hoverfly.core.fastpass import fixedrate
 from hoverfly.core.signals import Signals
+from hoverfly.core.stages.control import Controller
+from hoverfly.core.stages.mixer import Mixer
 
 if IS_MICROPYTHON:
     from hoverfly.accel import rate as rate_viper

@@ -15,9 +15,9 @@ from array import array
 from fastpathkit import Rand as _Rand
 from fastpathkit import params as _params
 
-from hoverfly.core.output import OutputEncoder, OutputStage
-from hoverfly.core.rc import RcInput
 from hoverfly.core.signals import Setpoint
+from hoverfly.core.stages.output import OutputEncoder, OutputStage
+from hoverfly.core.stages.rc import RcInput
 from hoverfly.drivers.imu import signed16
 from hoverfly.drivers.mpu6050 import MPU6050, WHO_AM_I_VALUE
 from hoverfly.drivers.orientation import Orientation
@@ -316,8 +316,8 @@ def test_mpu6050_read_equals_signed16_and_rotate_scaled_for_every_mount():
 
 def test_rc_new_frame_mode_ranges_equal_in_range():
     # new_frame's mode ranges and fs_switch_in are _in_range() inline: the same answers
-    from hoverfly.core.control import MODE_ACRO, MODE_ANGLE, MODE_HORIZON
-    from hoverfly.core.rc import _in_range
+    from hoverfly.core.stages.control import MODE_ACRO, MODE_ANGLE, MODE_HORIZON
+    from hoverfly.core.stages.rc import _in_range
 
     rnd = _Rand(9)
     rc = RcInput()

@@ -1,4 +1,4 @@
-"""Flight logger (core/logger.py): what a Flight writes into a ULog sink, checked with a tiny reader.
+"""Flight logger (core/log/logger.py): what a Flight writes into a ULog sink, checked with a tiny reader.
 
 Runs under pytest and MicroPython (tests/portable/mprun.py test_logger).
 """
@@ -7,7 +7,7 @@ import struct
 
 from hoverfly.core.board import Board
 from hoverfly.core.flight import Flight
-from hoverfly.core.logger import FAST_TOPICS, FORMATS, STAGE_FRAMES, format_size
+from hoverfly.core.log.logger import FAST_TOPICS, FORMATS, STAGE_FRAMES, format_size
 from hoverfly.protocols.ulog import RingSink
 
 try:
@@ -464,7 +464,7 @@ def test_pass_record_and_one_pack_write_the_same_log():
 
 
 def test_signals_logged_arrays_live_in_the_frame_where_the_runtime_can_view_bytes_as_floats():
-    from hoverfly.core.logframe import ARRAY_FIELDS, CAN_VIEW, FRAME_BYTES, array_table, frame_format
+    from hoverfly.core.log.logframe import ARRAY_FIELDS, CAN_VIEW, FRAME_BYTES, array_table, frame_format
     from hoverfly.core.signals import Signals
 
     assert FRAME_BYTES == struct.calcsize(frame_format())
@@ -487,7 +487,7 @@ def test_signals_logged_arrays_live_in_the_frame_where_the_runtime_can_view_byte
 def test_the_fixed_controller_writes_its_pid_terms_every_pass_while_a_log_runs():
     # Flight.logging_changed: every pass while the logger's every-pass calls are installed (the log
     # records the terms at every pass), every TERMS_IDLE_PASSES passes otherwise
-    from hoverfly.core.fixedrate import TERMS_EVERY
+    from hoverfly.core.fastpass.fixedrate import TERMS_EVERY
     from hoverfly.core.flight import TERMS_IDLE_PASSES
 
     f = Flight(_Board(), None)

@@ -3,7 +3,7 @@
 from array import array
 
 from hoverfly.compat import ticks_add
-from hoverfly.core.motortest import (
+from hoverfly.core.command.motortest import (
     STOP_ARMED,
     STOP_ARMING,
     STOP_EXPIRED,
@@ -11,7 +11,7 @@ from hoverfly.core.motortest import (
     STOP_USER,
     MotorTest,
 )
-from hoverfly.core.params import Params
+from hoverfly.core.config.params import Params
 
 T0 = ticks_add(0, -500000)  # the test crosses the tick wrap
 

@@ -4,8 +4,8 @@ follows the enabling procedure and the companion's frames; MSP_SET_MODE_RANGE wr
 
 from configfakes import make_flight
 
-from hoverfly.core.autopilot import AP_ENABLED, AP_OFF, AP_SILENT, AP_WAIT, RES_SWITCH_OFF, RES_TAKEN, RES_WAIT
-from hoverfly.core.mspserver import MspServer
+from hoverfly.core.command.autopilot import AP_ENABLED, AP_OFF, AP_SILENT, AP_WAIT, RES_SWITCH_OFF, RES_TAKEN, RES_WAIT
+from hoverfly.core.links.mspserver import MspServer
 from hoverfly.protocols import msp
 
 

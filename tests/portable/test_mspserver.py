@@ -2,10 +2,10 @@
 
 from configfakes import make_flight
 
-from hoverfly.core.links import ConfigPort
-from hoverfly.core.mspserver import CONFIG_MSP, MspServer
-from hoverfly.core.params import Params
-from hoverfly.core.storage import Storage
+from hoverfly.core.config.params import Params
+from hoverfly.core.config.storage import Storage
+from hoverfly.core.links.mspserver import CONFIG_MSP, MspServer
+from hoverfly.core.links.task import ConfigPort
 from hoverfly.protocols import msp
 
 

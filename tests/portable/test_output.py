@@ -4,8 +4,8 @@ commands, the output failsafe, and eRPM replies checked by their CRC."""
 from array import array
 
 from hoverfly.compat import ticks_add
-from hoverfly.core.output import OutputEncoder, OutputStage, parse_motor_order
-from hoverfly.core.params import Params
+from hoverfly.core.config.params import Params
+from hoverfly.core.stages.output import OutputEncoder, OutputStage, parse_motor_order
 from hoverfly.protocols.dshot import (
     CMD_3D_MODE_OFF,
     CMD_SPIN_DIRECTION_NORMAL,

@@ -1,4 +1,4 @@
-"""The output stage's motor commands in fixed point (core/output.py `motors_fixed`, with the fixed rate
+"""The output stage's motor commands in fixed point (core/stages/output.py `motors_fixed`, with the fixed rate
 loop) against the float stage, and their viper twin (accel/output.py).
 
 Portable: under MicroPython (tests/portable/mprun.py) the viper twin must be the one chosen and must
@@ -12,9 +12,9 @@ from fastpathkit import heap_bytes
 from test_fixedrate import Lcg  # the same deterministic numbers on every port
 
 from hoverfly.compat import IS_MICROPYTHON
-from hoverfly.core import output as output_mod
-from hoverfly.core.output import OutputStage
-from hoverfly.core.params import Params
+from hoverfly.core.config.params import Params
+from hoverfly.core.stages import output as output_mod
+from hoverfly.core.stages.output import OutputStage
 
 if IS_MICROPYTHON:
     from hoverfly.accel import output as output_viper
@@ -143,7 +143,7 @@ def test_a_flight_takes_the_fixed_commands_with_the_fixed_rate_loop():
 
 
 def test_per_motor_ranges_bound_the_armed_commands_and_a_disabled_motor_stays_stopped():
-    from hoverfly.core.output import OutputEncoder
+    from hoverfly.core.stages.output import OutputEncoder
 
     p = Params()
     for name, value in _PER_MOTOR + (("motor_protocol", "pwm"), ("motor_pwm_rate", 400)):

@@ -1,4 +1,4 @@
-"""The stick shaping in fixed point (core/rc.py `rc_pass`) against the float stage, and its viper twin.
+"""The stick shaping in fixed point (core/stages/rc.py `rc_pass`) against the float stage, and its viper twin.
 
 Portable: under MicroPython (tests/portable/mprun.py) the viper twin (accel/rc.py) must be the one
 chosen and must give the Python twin's bits on every output, state word and change mask; on both
@@ -14,9 +14,9 @@ from fastpathkit import params as _params
 from test_fixedrate import Lcg  # the same deterministic numbers on every port
 
 from hoverfly.compat import IS_MICROPYTHON
-from hoverfly.core import rc as rcmod
-from hoverfly.core.rc import CO_SIZE, S_S1, S_X, S_Y, ST_SIZE, RcInput
 from hoverfly.core.signals import Setpoint
+from hoverfly.core.stages import rc as rcmod
+from hoverfly.core.stages.rc import CO_SIZE, S_S1, S_X, S_Y, ST_SIZE, RcInput
 
 if IS_MICROPYTHON:
     from hoverfly.accel import rc as rc_viper
@@ -222,9 +222,9 @@ def test_the_viper_twin_gives_the_python_twins_bits():
 
 
 def test_rc_frame_twins_agree():
-    # new_frame's integer part (core/rc.py rc_frame; accel/rc.py's viper twin on MicroPython): the same
+    # new_frame's integer part (core/stages/rc.py rc_frame; accel/rc.py's viper twin on MicroPython): the same
     # moved-stick mask, switch bits, last µs and Q20 inputs on random tables and frames
-    from hoverfly.core.rc import FC_SIZE
+    from hoverfly.core.stages.rc import FC_SIZE
 
     if not IS_MICROPYTHON:
         assert rcmod._rc_frame is rcmod.rc_frame

@@ -11,10 +11,10 @@ from array import array
 from configfakes import make_flight
 from fastpathkit import params as _params
 
-from hoverfly.core.cliserver import CliServer
-from hoverfly.core.params import rc_map_error
-from hoverfly.core.rc import MAP_LETTERS, RcInput, map_channels, map_text, map_value
+from hoverfly.core.config.params import rc_map_error
+from hoverfly.core.links.cliserver import CliServer
 from hoverfly.core.signals import Setpoint
+from hoverfly.core.stages.rc import MAP_LETTERS, RcInput, map_channels, map_text, map_value
 
 _DEG = math.pi / 180.0
 
@@ -243,7 +243,7 @@ def test_cli_map_prints_and_sets_the_map_as_betaflight_does():
 
 # -------------------------------------------------------------------------------- MSP
 def _msp():
-    from hoverfly.core.mspserver import MspServer
+    from hoverfly.core.links.mspserver import MspServer
 
     flight, _ = make_flight()
     return MspServer(flight), flight
@@ -263,7 +263,7 @@ def _msp_ask(server, cmd, payload=b""):
 
 
 def test_msp_rx_map_reads_and_writes_the_map_as_betaflight_does():
-    from hoverfly.core.mspserver import MSP_RX_MAP, MSP_SET_RX_MAP
+    from hoverfly.core.links.mspserver import MSP_RX_MAP, MSP_SET_RX_MAP
     from hoverfly.protocols import msp
 
     s, f = _msp()

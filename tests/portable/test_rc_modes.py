@@ -6,9 +6,9 @@ mode ranges: channel (1-based, 0 = none) and min_us <= µs < max_us.
 
 from array import array
 
-from hoverfly.core.control import MODE_ACRO, MODE_ANGLE, MODE_HORIZON
-from hoverfly.core.params import Params
-from hoverfly.core.rc import RcInput
+from hoverfly.core.config.params import Params
+from hoverfly.core.stages.control import MODE_ACRO, MODE_ANGLE, MODE_HORIZON
+from hoverfly.core.stages.rc import RcInput
 
 
 def _rc(**values):
@@ -110,7 +110,7 @@ def test_reconfigure_takes_new_ranges():
 def test_autopilot_switch_range_reads_as_the_autopilot_reads_it():
     # the Flight hands RcInput's reading of the autopilot switch to Autopilot.on_pilot_frame: it must be
     # the autopilot's own switch_on() on the same frame, for the default AUX3 range and a moved one
-    from hoverfly.core.autopilot import Autopilot
+    from hoverfly.core.command.autopilot import Autopilot
     from hoverfly.core.events import EventLog
 
     for ch, lo, hi in ((7, 1700, 2100), (8, 1300, 1600), (0, 1000, 2100)):

@@ -1,4 +1,4 @@
-"""The receiver stage (core/receiver.py) and the RC input options it feeds (throttle bands,
+"""The receiver stage (core/stages/receiver.py) and the RC input options it feeds (throttle bands,
 alpha-beta smoothing), on a fake board: bytes or edges in, channels and the link watch out,
 CRSF telemetry back. Portable: pytest on CPython, tests/portable/mprun.py under MicroPython.
 """
@@ -7,11 +7,11 @@ from array import array
 
 from hoverfly.compat import IS_MICROPYTHON, collect_garbage, disable_gc, enable_gc, mem_alloc, ticks_add
 from hoverfly.core.board import Board
-from hoverfly.core.control import MODE_ACRO, MODE_ANGLE, MODE_HORIZON
-from hoverfly.core.params import Params
-from hoverfly.core.rc import RcInput
-from hoverfly.core.receiver import Receiver, battery_remaining_pct, cell_count, flight_mode_text
+from hoverfly.core.config.params import Params
 from hoverfly.core.signals import Setpoint, Signals
+from hoverfly.core.stages.control import MODE_ACRO, MODE_ANGLE, MODE_HORIZON
+from hoverfly.core.stages.rc import RcInput
+from hoverfly.core.stages.receiver import Receiver, battery_remaining_pct, cell_count, flight_mode_text
 from hoverfly.protocols import crsf, ibus, sbus
 from hoverfly.protocols.pulses import ppm_edges, pwm_edges
 
@@ -259,7 +259,7 @@ def test_telemetry_refreshing_only_the_next_kind_sends_the_frames_of_refreshing_
     # send_telemetry sets only the kind the next frame carries; a scheduler fed every kind before each
     # poll (as it was) must give the very same bytes, with the battery, attitude and mode changing
     if not IS_MICROPYTHON:  # const() names with an underscore are no module attributes on MicroPython
-        from hoverfly.core import receiver as receiver_mod
+        from hoverfly.core.stages import receiver as receiver_mod
 
         assert (receiver_mod._KIND_BATTERY, receiver_mod._KIND_ATTITUDE, receiver_mod._KIND_FLIGHT_MODE) == (
             crsf.KIND_BATTERY, crsf.KIND_ATTITUDE, crsf.KIND_FLIGHT_MODE)

@@ -1,4 +1,4 @@
-"""The receiver parsed on a second core (core/rxcore.py, Receiver.use_core1): the same frames, counts and
+"""The receiver parsed on a second core (core/stages/rxcore.py, Receiver.use_core1): the same frames, counts and
 telemetry as parsing in the receiver task; no torn frame through the lock-free handover under a real
 thread; core 1's failure silences the link. Portable: pytest on CPython, mprun.py under MicroPython
 (both have `_thread`: a pthread on the unix port, core 1 on the rp2 port).
@@ -11,11 +11,11 @@ from fastpathkit import heap_bytes
 from test_receiver import CH, T0, FakeBoard, _receiver
 
 from hoverfly.compat import IS_MICROPYTHON, sleep_us, ticks_add
-from hoverfly.core.control import MODE_ANGLE
-from hoverfly.core.params import Params
-from hoverfly.core.receiver import Receiver
-from hoverfly.core.rxcore import MASK, W_FRAMES, W_POLLS, W_RUNNING, W_SEQ, W_TX_LEN, RxCore, RxLink
+from hoverfly.core.config.params import Params
 from hoverfly.core.signals import Signals
+from hoverfly.core.stages.control import MODE_ANGLE
+from hoverfly.core.stages.receiver import Receiver
+from hoverfly.core.stages.rxcore import MASK, W_FRAMES, W_POLLS, W_RUNNING, W_SEQ, W_TX_LEN, RxCore, RxLink
 from hoverfly.protocols import crsf, sbus
 
 
@@ -257,7 +257,7 @@ def test_core_1_stops_when_asked():
         if link.words[W_POLLS] > 10:
             break
         sleep_us(100)
-    from hoverfly.core.rxcore import LinkView
+    from hoverfly.core.stages.rxcore import LinkView
 
     LinkView(link).stop()
     for _ in range(10000):

@@ -2,9 +2,9 @@
 
 from struct import pack
 
-from hoverfly.core import storage as st
-from hoverfly.core.params import Params
-from hoverfly.core.storage import (
+from hoverfly.core.config import storage as st
+from hoverfly.core.config.params import Params
+from hoverfly.core.config.storage import (
     EMPTY,
     LOADED,
     LOADED_OLDER,
@@ -179,5 +179,5 @@ def test_record_holds_every_table_row():
     r = parse_record(encode_record(Params().values, 5))
     assert r[1] == 5
     names = [e[0] for e in r[2]]
-    from hoverfly.core.params import PARAMS
+    from hoverfly.core.config.params import PARAMS
     assert names == [row[0] for row in PARAMS]

@@ -5,9 +5,7 @@ injected. Portable."""
 
 from configfakes import FakeBoard
 
-from hoverfly.core.arming import BATTERY_CRITICAL, BIT_FAILED, BOXFAILSAFE, CLI
-from hoverfly.core.commander import SOURCE_FAILSAFE
-from hoverfly.core.control import MODE_ANGLE
+from hoverfly.core.command.commander import SOURCE_FAILSAFE
 from hoverfly.core.events import (
     DISARM_FS_SWITCH,
     EV_ARMING_BLOCKED,
@@ -15,8 +13,10 @@ from hoverfly.core.events import (
     EV_FAILSAFE_STAGE1,
     EV_FAILSAFE_STAGE2,
 )
-from hoverfly.core.failsafe import IDLE, STAGE1, STAGE2
 from hoverfly.core.flight import Flight
+from hoverfly.core.safety.arming import BATTERY_CRITICAL, BIT_FAILED, BOXFAILSAFE, CLI
+from hoverfly.core.safety.failsafe import IDLE, STAGE1, STAGE2
+from hoverfly.core.stages.control import MODE_ANGLE
 from hoverfly.protocols.crsf import encode_rc_frame
 
 

@@ -1,6 +1,7 @@
-"""Viper twin of core/failsafe.py's `FaultWatch.check_imu` (MicroPython only; chosen at import by core/failsafe.py).
+"""Viper twin of core/safety/failsafe.py's `FaultWatch.check_imu` (MicroPython only; chosen at import by
+core/safety/failsafe.py).
 
-`check_imu` is the method itself (core/failsafe.py puts it on the class), so the 100 Hz task makes no
+`check_imu` is the method itself (core/safety/failsafe.py puts it on the class), so the 100 Hz task makes no
 bytecode call for it and no float object: the six raw values are read as their float32 bits (`ptr32` on
 the "f" arrays, or the pass record's float views), and so are the limits:
 

@@ -1,4 +1,5 @@
-"""Viper twins of core/rc.py's `rc_pass` and `rc_frame` (MicroPython only; chosen at import by core/rc.py).
+"""Viper twins of core/stages/rc.py's `rc_pass` and `rc_frame` (MicroPython only; chosen at import by
+core/stages/rc.py).
 
 The same integer arithmetic, step for step, as the Python `rc_pass`, which stays the reference and
 the fallback; tests/portable/test_rc_fixed.py runs both on the same inputs and wants every output
@@ -10,12 +11,12 @@ bit, state word and change mask equal. As in accel/imufilter.py:
 - Products stay below 2**31 (viper ints are 32-bit machine words on the RP2040/RP2350; 64-bit on
   the unix VM): the PT2 step's `k * (x - y)` on the difference's 16-bit halves (k <= 2**15,
   |x - y| <= 2**21); the Q16 products of two values in 0..2**16 on the second one's bytes; the
-  stick times a rate (< 2**22) on the rate's 11-bit halves. core/rc.py's docstring of `rc_pass`
+  stick times a rate (< 2**22) on the rate's 11-bit halves. core/stages/rc.py's docstring of `rc_pass`
   gives the bounds.
 - `ptr32` loads are zero-extended on a 64-bit port: values that may be negative are sign-extended
   by `(v << sx) >> sx`, sx 32 there and 0 on a 32-bit port.
 
-Layouts (co, st) are core/rc.py's; the indices are repeated here as literals with the names in
+Layouts (co, st) are core/stages/rc.py's; the indices are repeated here as literals with the names in
 comments.
 """
 
@@ -123,9 +124,9 @@ def rc_pass(co_a, st_a, stick_a, rate_a) -> int:
 
 @micropython.viper
 def rc_frame(fco_a, last_a, channels_a, st_a, src_a) -> int:
-    """core/rc.py `rc_frame`: the receiver's 16 channels copied in, the sticks that moved (their µs into last),
+    """core/stages/rc.py `rc_frame`: the receiver's 16 channels copied in, the sticks that moved (their µs into last),
     in fixed point their Q20 into st (_stick_q's arithmetic, the division included), and the mode switches in
-    range. Layout FC_* of core/rc.py, repeated here as literals. µs values are below 2**16 and Q20 values
+    range. Layout FC_* of core/stages/rc.py, repeated here as literals. µs values are below 2**16 and Q20 values
     within +-2**20; the one product, a * 2**21 with a < 500, stays below 2**30."""
     fco = ptr32(fco_a)
     last = ptr32(last_a)

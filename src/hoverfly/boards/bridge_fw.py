@@ -96,7 +96,7 @@ class Firmware:
     """One bridged flight: frames in, frames out (no I/O here: `serve` moves the bytes)."""
 
     def __init__(self, board=None):
-        from hoverfly.core.params import Params
+        from hoverfly.core.config.params import Params
 
         self.board = board if board is not None else BridgeBoard()
         self.params = Params()
@@ -131,7 +131,7 @@ class Firmware:
     def hello(self, host_version):
         """A new session: forget the parameters and flight of any earlier one (a device
         stays up between host runs); answer with this end's protocol version."""
-        from hoverfly.core.params import Params
+        from hoverfly.core.config.params import Params
 
         self.flight = None
         self.params = Params()

@@ -44,7 +44,7 @@ class Board:
     def write_motors(self, motor_out, count):
         """Send motor commands: 0 = stop, otherwise idle..1 (the board's output codec encodes them).
 
-        The board owns its codec (core.output.OutputEncoder: protocol, motor order, DShot
+        The board owns its codec (core.stages.output.OutputEncoder: protocol, motor order, DShot
         commands) and its output timer, which calls the encoder's `tick(now_us)` whatever the
         pass does: a pass that stops calling this for `output_fs_ms` finds every output
         disarmed (the output failsafe)."""
@@ -68,7 +68,7 @@ class Board:
     def set_led(self, on):
         """Status LED."""
 
-    # --- configuration links: parameter storage and serial ports (core/storage.py, core/links.py)
+    # --- configuration links: parameter storage and serial ports (core/config/storage.py, core/links/task.py)
     def load_storage(self):
         """The stored parameter image (bytes), or None when nothing was ever saved."""
         return None

@@ -2,8 +2,8 @@
 
 `Flight` wires the stages, runs the pass and holds the task table. `Flight.step(now_us)` runs
 one pass at the loop rate and then the slow tasks that are due: the receiver and its link watch
-(here), the supervisor's 100 Hz safety task and battery (core/supervisor.py: arming, faults, the
-failsafe's stages), the LED. Who flies and with what set point is the commander's (core/commander.py).
+(here), the supervisor's 100 Hz safety task and battery (core/safety/supervisor.py: arming, faults, the
+failsafe's stages), the LED. Who flies and with what set point is the commander's (core/command/commander.py).
 Stages are built once; `configure()` reads the parameters into every stage (again whenever they
 change while disarmed).
 """
@@ -11,32 +11,32 @@ change while disarmed).
 from array import array
 
 from hoverfly.compat import attr_room, const, ticks_diff
-from hoverfly.core.arming import Arming
-from hoverfly.core.autopilot import Autopilot
-from hoverfly.core.bit import BuiltInTest
-from hoverfly.core.commander import Commander
-from hoverfly.core.control import Controller
-from hoverfly.core.estimator import BoardAlignment, ExternalAttitude, GyroCalibration, Mahony
+from hoverfly.core.command.autopilot import Autopilot
+from hoverfly.core.command.commander import Commander
+from hoverfly.core.command.motortest import MotorTest
+from hoverfly.core.config.params import Params
 from hoverfly.core.events import EV_GYRO_CALIBRATED, EV_RX_LOST, EV_RX_RESTORED, EventLog
-from hoverfly.core.failsafe import CAUSE_NO_FRAMES, CAUSE_SWITCH, IDLE, SWITCH_KILL, Failsafe, FaultWatch
-from hoverfly.core.filters import AccelFilter, GyroFilter
-from hoverfly.core.fixedatt import HAS_ACCEL as _FIXED_ATT_ACCEL
-from hoverfly.core.fixedatt import FixedAttitude
-from hoverfly.core.fixedimu import HAS_ACCEL as _FIXED_IMU_ACCEL
-from hoverfly.core.fixedimu import FixedImuFilter
-from hoverfly.core.fixedrate import FixedRate
-from hoverfly.core.logger import Logger
-from hoverfly.core.mixer import Mixer
-from hoverfly.core.motortest import MotorTest
-from hoverfly.core.output import HAS_ACCEL as _FIXED_OUT_ACCEL
-from hoverfly.core.output import OutputStage
-from hoverfly.core.params import Params
-from hoverfly.core.rc import RcInput
-from hoverfly.core.receiver import Receiver
+from hoverfly.core.fastpass.fixedatt import HAS_ACCEL as _FIXED_ATT_ACCEL
+from hoverfly.core.fastpass.fixedatt import FixedAttitude
+from hoverfly.core.fastpass.fixedimu import HAS_ACCEL as _FIXED_IMU_ACCEL
+from hoverfly.core.fastpass.fixedimu import FixedImuFilter
+from hoverfly.core.fastpass.fixedrate import FixedRate
+from hoverfly.core.log.logger import Logger
+from hoverfly.core.safety.arming import Arming
+from hoverfly.core.safety.bit import BuiltInTest
+from hoverfly.core.safety.failsafe import CAUSE_NO_FRAMES, CAUSE_SWITCH, IDLE, SWITCH_KILL, Failsafe, FaultWatch
+from hoverfly.core.safety.supervisor import Supervisor
 from hoverfly.core.scheduler import Scheduler
 from hoverfly.core.scheduler import fast_pass_stats as _pass_stats
 from hoverfly.core.signals import Signals
-from hoverfly.core.supervisor import Supervisor
+from hoverfly.core.stages.control import Controller
+from hoverfly.core.stages.estimator import BoardAlignment, ExternalAttitude, GyroCalibration, Mahony
+from hoverfly.core.stages.filters import AccelFilter, GyroFilter
+from hoverfly.core.stages.mixer import Mixer
+from hoverfly.core.stages.output import HAS_ACCEL as _FIXED_OUT_ACCEL
+from hoverfly.core.stages.output import OutputStage
+from hoverfly.core.stages.rc import RcInput
+from hoverfly.core.stages.receiver import Receiver
 
 # With no log running, the fixed controller writes its PID terms and torques out every this many passes
 # (the maintenance telemetry reads them: at 1 kHz, at most 8 ms old).

@@ -6,10 +6,10 @@ read and write these arrays and attributes, never each other.
 
 from array import array
 
-from hoverfly.core.control import MODE_ANGLE
-from hoverfly.core.estimator import Attitude
-from hoverfly.core.logframe import PassRecord
-from hoverfly.core.mixer import MAX_MOTORS
+from hoverfly.core.log.logframe import PassRecord
+from hoverfly.core.stages.control import MODE_ANGLE
+from hoverfly.core.stages.estimator import Attitude
+from hoverfly.core.stages.mixer import MAX_MOTORS
 
 
 class Setpoint:
@@ -27,7 +27,7 @@ class Setpoint:
 
 
 class Signals:
-    """The pass's signals. The arrays the flight log records at every pass (core/logframe.py)
+    """The pass's signals. The arrays the flight log records at every pass (core/log/logframe.py)
     live in `record`, one block laid out as the log frame, where the runtime allows it."""
 
     def __init__(self):

@@ -13,7 +13,7 @@ y axis. These are Betaflight's `align_gyro` names and relative rotations (Betafl
 CW90_FLIP gives X = y, Y = x, Z = -z), expressed in our FRD body frame. On top of the
 axis map an arbitrary alignment can be given: the board turned by roll, pitch, yaw
 (radians) in the frame, v_body = Rz(yaw) Ry(pitch) Rx(roll) v_board, the convention of
-core/estimator.py BoardAlignment. Do not apply the same angles in both places.
+core/stages/estimator.py BoardAlignment. Do not apply the same angles in both places.
 
 `rotate(x, y, z, out)` and `rotate_scaled(x, y, z, k, out)` write out[0..2] and make no
 containers. A pure axis map (no alignment angles) runs as signed index selection on

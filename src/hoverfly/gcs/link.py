@@ -16,7 +16,7 @@ controller) raises LinkError, a UserError: the CLI prints it as one line.
 import re
 import time
 
-from hoverfly.core.autopilot import PRIV_NAMES, RES_ARM_REFUSED, RESULT_TEXTS, STATE_NAMES, arm_refusal_text
+from hoverfly.core.command.autopilot import PRIV_NAMES, RES_ARM_REFUSED, RESULT_TEXTS, STATE_NAMES, arm_refusal_text
 from hoverfly.errors import UserError
 from hoverfly.protocols import maintenance as mp
 from hoverfly.protocols import msp
@@ -311,7 +311,7 @@ class CliSession:
 
 
 # ---------------------------------------------------------------------------- maintenance protocol
-ERROR_CMD = 127  # the server's "refused" command id in a reply header (core/maintserver.py)
+ERROR_CMD = 127  # the server's "refused" command id in a reply header (core/links/maintserver.py)
 
 # hoverfly parameter -> the seed command that carries it (what `maint set NAME VALUE` can change)
 _PID_AXES = ("roll", "pitch", "yaw")

@@ -17,10 +17,10 @@ import math
 import threading
 import time
 
-from hoverfly.core.arming import REASONS
-from hoverfly.core.bit import CHECK_NAMES
-from hoverfly.core.cliserver import format_value
-from hoverfly.core.params import PARAMS, REBOOT, check, is_choice
+from hoverfly.core.config.params import PARAMS, REBOOT, check, is_choice
+from hoverfly.core.links.cliserver import format_value
+from hoverfly.core.safety.arming import REASONS
+from hoverfly.core.safety.bit import CHECK_NAMES
 from hoverfly.errors import UserError
 from hoverfly.gcs.link import (
     MAINT_SETTABLE,
@@ -44,7 +44,7 @@ STATUS_EVERY = 10  # slow MSP reads (status, battery) every this many pump ticks
 THROTTLE_ZERO = 0.02  # throttle share that counts as "at zero" for arming (a gamepad's rest noise)
 _G = 9.80665
 _DEG = 57.29577951308232
-_ACC_1G = 2048.0  # MSP_RAW_IMU scales (core/mspserver.py)
+_ACC_1G = 2048.0  # MSP_RAW_IMU scales (core/links/mspserver.py)
 _GYRO_LSB_PER_DPS = 16.4
 _MODES = ((16, "failsafe"), (2, "angle"), (4, "horizon"))
 
@@ -66,7 +66,7 @@ class GcsError(UserError):
 
 def param_groups():
     """{name: group} from the section comments of the parameter table ('# --- rates' ...)."""
-    import hoverfly.core.params as params_module
+    import hoverfly.core.config.params as params_module
 
     groups = {}
     group = "general"

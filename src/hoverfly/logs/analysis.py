@@ -15,7 +15,7 @@ noise shows up as lines rising with throttle.
 
 import numpy as np
 
-from hoverfly.core.rc import map_channels
+from hoverfly.core.stages.rc import map_channels
 from hoverfly.logs.steps import measure_step
 
 MIN_STEP_US = 50  # a tenth of the stick's half travel in one frame: a step, not a pilot's sweep
@@ -27,7 +27,7 @@ _RC_CHANNELS = 18
 
 
 def _stick_norm(us, deadband):
-    """core.rc.RcInput._stick on an array: µs to -1..1 with the deadband taken out."""
+    """core.stages.rc.RcInput._stick on an array: µs to -1..1 with the deadband taken out."""
     d = np.asarray(us, dtype=float) - 1500.0
     d = np.where(d > deadband, d - deadband, np.where(d < -deadband, d + deadband, 0.0))
     return np.clip(d / (500.0 - deadband), -1.0, 1.0)
@@ -72,7 +72,7 @@ def find_steps(log):
             t_end = t[end] if end < len(t) else t[-1]
             if t_end - t[j] < MIN_HOLD_S:
                 continue
-            sign = -1.0 if a == 1 else 1.0  # stick forward is nose down (FRD), as core.rc reads it
+            sign = -1.0 if a == 1 else 1.0  # stick forward is nose down (FRD), as core.stages.rc reads it
             before = sign * float(_stick_norm(us[j - 1, a], db[a]))
             after = sign * float(_stick_norm(us[j, a], db[a]))
             steps.append((a, float(t[j]), float(t_end), int(mode[j]), before, after))

@@ -9,7 +9,7 @@ None when a topic is missing. Raises only LogReadError (a UserError) for unreada
 
 import numpy as np
 
-from hoverfly.core.params import PARAMS, row
+from hoverfly.core.config.params import PARAMS, row
 from hoverfly.logs.ulogread import LogReadError, open_ulog, summarise
 
 AXES = ("roll", "pitch", "yaw")

@@ -61,7 +61,7 @@ def _mark(log, axs, label_top=True):
     """Flight mode as background bands, arm/disarm and failsafe as vertical lines, on every panel."""
     from matplotlib.patches import Patch
 
-    from hoverfly.core.control import MODE_NAMES
+    from hoverfly.core.stages.control import MODE_NAMES
 
     spans = _mode_spans(log)
     seen = set()
@@ -93,14 +93,14 @@ def _mark(log, axs, label_top=True):
 
 def angle_setpoint_deg(log):
     """(t_s, (n, 2) roll and pitch angle set point in deg, NaN outside angle/horizon mode) from input_rc: the
-    stick as core.rc reads it times angle_limit; None without input_rc."""
+    stick as core.stages.rc reads it times angle_limit; None without input_rc."""
     from hoverfly.logs.analysis import _mode_at, _stick_norm
 
     vals = log.vector("input_rc", "values", 18)
     rc = log.topic("input_rc")
     if vals is None or rc is None or len(rc["t_s"]) < 2:
         return None
-    from hoverfly.core.rc import map_channels
+    from hoverfly.core.stages.rc import map_channels
 
     try:
         chmap = map_channels(int(log.param("rc_map", 12435678)))

@@ -21,8 +21,8 @@ import numpy as np
 
 from hoverfly.compat import TICKS_PERIOD, ticks_add
 from hoverfly.core.board import Board
+from hoverfly.core.config.params import Params
 from hoverfly.core.flight import Flight
-from hoverfly.core.params import Params
 from hoverfly.errors import UserError
 
 AXES = ("roll", "pitch", "yaw")
@@ -83,7 +83,7 @@ class ReplayBoard(Board):
 
 
 class ReplayReceiver:
-    """Stands in for core.receiver.Receiver: the logged frames, each in the pass it arrived."""
+    """Stands in for core.stages.receiver.Receiver: the logged frames, each in the pass it arrived."""
 
     def __init__(self, log, board):
         self.board = board

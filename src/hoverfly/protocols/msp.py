@@ -995,7 +995,7 @@ def unpack_set_mode_range(payload, length=-1):
     return payload[0], payload[1], payload[2], payload[3], payload[4], logic, linked
 
 
-# MSP2_HOVERFLY_AUTOPILOT reply: seed 004's privilege state (core/autopilot.py) for the companion.
+# MSP2_HOVERFLY_AUTOPILOT reply: seed 004's privilege state (core/command/autopilot.py) for the companion.
 AUTOPILOT_FORMAT = "<BBBBBBHHBBHII"
 AUTOPILOT_SIZE = const(22)
 AUTOPILOT_FIELDS = ("state", "privilege", "flier", "override", "soft_axes", "latch", "latch_throttle_us",

@@ -2,7 +2,7 @@
 
 Takes a protocol name; gives a fresh decoder with the common interface of rxcodec.py. Its own
 module because it names every codec and each codec imports rxcodec, their shared base: kept in
-rxcodec it made an import circle. Used by the receiver stage (core/receiver.py) at configure.
+rxcodec it made an import circle. Used by the receiver stage (core/stages/receiver.py) at configure.
 """
 
 

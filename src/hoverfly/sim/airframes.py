@@ -3,7 +3,7 @@
 Every key is checked before anything flies (the physics divides by several of them): numbers finite,
 positive where a zero or a negative is no craft, and within a range a multirotor can have; the right
 type; required keys present; unknown keys refused with the nearest known one; [params] through the
-parameter table's one check (core/params.check). Anything wrong is one UserError line.
+parameter table's one check (core/config/params.check). Anything wrong is one UserError line.
 """
 
 import math
@@ -11,8 +11,8 @@ import pathlib
 import tomllib
 import xml.etree.ElementTree as ElementTree
 
-from hoverfly.core.mixer import MIXER_TABLES
-from hoverfly.core.params import check, nearest, show
+from hoverfly.core.config.params import check, nearest, show
+from hoverfly.core.stages.mixer import MIXER_TABLES
 from hoverfly.errors import UserError
 
 HERE = pathlib.Path(__file__).parent / "airframes"
@@ -151,7 +151,7 @@ def load_airframe(name_or_path):
     else:
         path = HERE / (str(name_or_path) + ".toml")
         if not path.exists():
-            from hoverfly.core.params import nearest
+            from hoverfly.core.config.params import nearest
 
             guess = nearest(str(name_or_path), builtin_names())
             raise UserError("unknown airframe '%s'%s (built in: %s, or a .toml file)"

@@ -6,7 +6,7 @@ receiver bytes or edges for those channels arrive through sim/rxlink.py with the
 timing. Its I2C bus 0 (the maintenance protocol's commands 22-23: `i2c_read` / `i2c_write`) holds
 the MPU-6050's register model (sim/regmodels.py) at 0x68, its data registers fed from the IMU
 sample the core last got. Motor commands the core writes cross the wire: the board's output codec
-(core/output.py) encodes them for `motor_protocol`, simulated ESCs (sim/esc.py) decode them
+(core/stages/output.py) encodes them for `motor_protocol`, simulated ESCs (sim/esc.py) decode them
 into what the physics spins next step (one loop of latency, as on hardware), and the output
 timer (`output_tick`) keeps the output failsafe.
 """
@@ -14,8 +14,8 @@ timer (`output_tick`) keeps the output failsafe.
 from array import array
 
 from hoverfly.core.board import BOOT_TICKS_US, SampledBoard
-from hoverfly.core.output import OutputEncoder, dshot_speed_kbit
-from hoverfly.core.params import Params
+from hoverfly.core.config.params import Params
+from hoverfly.core.stages.output import OutputEncoder, dshot_speed_kbit
 from hoverfly.protocols.pulsetrain import ReplyPulseDecoder, render_analog, render_dshot, render_reply
 from hoverfly.sim.esc import SimEsc, SimServo
 from hoverfly.sim.regmodels import MPU6050Model

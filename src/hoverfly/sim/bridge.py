@@ -41,12 +41,12 @@ from struct import pack_into, unpack_from
 
 from hoverfly.cli_flash import MPY_ARCH_CODE, mpy_arch
 from hoverfly.compat import ticks_add, ticks_diff
-from hoverfly.core.autopilot import STATE_NAMES
+from hoverfly.core.command.autopilot import STATE_NAMES
+from hoverfly.core.config.params import row
 from hoverfly.core.events import EventLog
-from hoverfly.core.params import row
-from hoverfly.core.rc import RcInput
 from hoverfly.core.scheduler import PS_PASSES, PS_SIZE
 from hoverfly.core.signals import Signals
+from hoverfly.core.stages.rc import RcInput
 from hoverfly.errors import UserError
 from hoverfly.protocols import bridge as B
 
@@ -310,7 +310,7 @@ class _Calibration:
 
 
 class _Autopilot:
-    """What the runner and the companion read of the firmware's autopilot (core/autopilot.py),
+    """What the runner and the companion read of the firmware's autopilot (core/command/autopilot.py),
     as the last OUT or RC_ANSWER frame said."""
 
     def __init__(self):

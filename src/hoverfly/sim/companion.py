@@ -7,10 +7,10 @@ throttle itself from the craft's altitude, as a companion with its own height se
 With a board (the in-process flight), the companion is wired to the flight controller's
 CLI/MSP port as a real one would be to a UART: each frame is an MSP v1 SET_RAW_RC request in
 bytes, followed by an MSP2_HOVERFLY_AUTOPILOT poll, written into the board's serial seam
-(`CompanionPort` as board.serial); the flight's links task (core/links.py, `attach`) parses
+(`CompanionPort` as board.serial); the flight's links task (core/links/task.py, `attach`) parses
 and answers them in its own time, and the companion reads the reply bytes back at its next
 tick. A `!` reply to SET_RAW_RC is a refusal; the poll answered after it says why (the
-autopilot's last result code, worded as core/autopilot.py words it).
+autopilot's last result code, worded as core/command/autopilot.py words it).
 
 Without a board (the firmware bridge, sim/bridge.py: it carries no serial bytes) each frame
 is the same request's bytes, parsed here as the MSP server parses them, its channels handed to
@@ -18,10 +18,10 @@ is the same request's bytes, parsed here as the MSP server parses them, its chan
 It counts what was taken and why the rest was refused.
 """
 
-from hoverfly.core.autopilot import RES_ARM_REFUSED, RES_TAKEN, RESULT_TEXTS, arm_refusal_text
 from hoverfly.core.board import SERIAL_CONFIG
-from hoverfly.core.links import attach
-from hoverfly.core.rc import aux_channel, map_channels
+from hoverfly.core.command.autopilot import RES_ARM_REFUSED, RES_TAKEN, RESULT_TEXTS, arm_refusal_text
+from hoverfly.core.links.task import attach
+from hoverfly.core.stages.rc import aux_channel, map_channels
 from hoverfly.errors import UserError
 from hoverfly.protocols import msp
 
@@ -39,7 +39,7 @@ class CompanionPort:
         self.port = port
         self.to_fc = bytearray()
         self.from_fc = bytearray()
-        self.links = None  # the flight's core.links.ConfigLinks serving the port (wire_up)
+        self.links = None  # the flight's core.links.task.ConfigLinks serving the port (wire_up)
 
     def read(self, port, buf):
         if port != self.port:

@@ -1,7 +1,7 @@
 """Simulated ESCs and servos: they read the real wire, as the hardware would, and drive the physics.
 
 The sim board's output timer hands each output line what the flight core's output codec put
-on it (`core.output.OutputEncoder`): a 16-bit DShot frame, or an analog pulse width in µs.
+on it (`core.stages.output.OutputEncoder`): a 16-bit DShot frame, or an analog pulse width in µs.
 `SimEsc` decodes it to the throttle 0..1 the motor model spins to:
 - DShot: CRC checked (normal, or inverted for bidirectional: the ESC detects which, as
   BLHeli_32/AM32 do); a frame that fails is ignored (the last command holds) and counted.
@@ -24,7 +24,7 @@ CPython only (simulator).
 
 import math
 
-from hoverfly.core.output import analog_protocol, dshot_speed_kbit
+from hoverfly.core.stages.output import analog_protocol, dshot_speed_kbit
 from hoverfly.protocols import analog
 from hoverfly.protocols.dshot import (
     CMD_3D_MODE_OFF,

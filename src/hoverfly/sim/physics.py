@@ -14,7 +14,7 @@ craft and the controller always agree on which motor is where and how it spins.
 
 import math
 
-from hoverfly.core.mixer import MIXER_TABLES
+from hoverfly.core.stages.mixer import MIXER_TABLES
 
 G_M_S2 = 9.80665
 RHO_KG_M3 = 1.225

@@ -10,9 +10,8 @@ import math
 import time
 
 from hoverfly.compat import ticks_diff
-from hoverfly.core.arming import REASONS, SOURCE_NAMES
-from hoverfly.core.autopilot import DISABLED_NAMES, OVERRIDE_NAMES
-from hoverfly.core.control import MODE_NAMES
+from hoverfly.core.command.autopilot import DISABLED_NAMES, OVERRIDE_NAMES
+from hoverfly.core.config.params import Params
 from hoverfly.core.events import (
     DISARM_REASONS,
     EV_ARMED,
@@ -27,12 +26,13 @@ from hoverfly.core.events import (
     EV_RX_LOST,
     EVENT_NAMES,
 )
-from hoverfly.core.failsafe import CAUSES, FAULT_NAMES, PROCEDURES
 from hoverfly.core.flight import Flight
-from hoverfly.core.mixer import MIXER_TABLES
-from hoverfly.core.params import Params
-from hoverfly.core.rc import aux_channel, map_channels
+from hoverfly.core.safety.arming import REASONS, SOURCE_NAMES
+from hoverfly.core.safety.failsafe import CAUSES, FAULT_NAMES, PROCEDURES
 from hoverfly.core.scheduler import PS_JITTER_MAX
+from hoverfly.core.stages.control import MODE_NAMES
+from hoverfly.core.stages.mixer import MIXER_TABLES
+from hoverfly.core.stages.rc import aux_channel, map_channels
 from hoverfly.errors import UserError
 from hoverfly.logs.steps import measure_step
 from hoverfly.sim.airframes import load_airframe

@@ -32,7 +32,7 @@ Keys an `[[at]]` entry may hold (several at once):
 A plane's scenario may start in flight: [start] altitude_m, airspeed_m_s, heading_deg.
 
 Every key is checked before anything flies: numbers finite and in range, the right type, required
-keys present, parameters through the table's one check (core/params.check, aliases included; a
+keys present, parameters through the table's one check (core/config/params.check, aliases included; a
 reboot parameter belongs in [params], not in a `set` event). Anything wrong is one UserError line
 naming the key (an unknown key with the nearest known one).
 """
@@ -40,7 +40,7 @@ naming the key (an unknown key with the nearest known one).
 import pathlib
 import tomllib
 
-from hoverfly.core.params import REBOOT, check, nearest, row, show
+from hoverfly.core.config.params import REBOOT, check, nearest, row, show
 from hoverfly.errors import UserError
 
 HERE = pathlib.Path(__file__).parent / "scenarios"

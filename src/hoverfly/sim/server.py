@@ -3,12 +3,12 @@
 Takes an airframe, two TCP port numbers and an optional storage file; gives a running simulated
 flight controller whose CLI + MSP port (default 5761, as Betaflight's SITL) and seed-001
 maintenance port (5762) accept one TCP client each. The sockets are non-blocking and polled by
-the flight core's links task (core/links.py, at serial_update_hz) through the sim board's serial
+the flight core's links task (core/links/task.py, at serial_update_hz) through the sim board's serial
 seam, so a client that connects, floods, stops reading or disconnects never stalls the flight loop:
 a newer connection replaces an older one, and a disconnect or a replacement ends that port's
 session (the links task sees a read of -1 before the next client's first byte); replies a client
 does not read are dropped past OUT_LIMIT bytes (counted). The parameter image is the `--storage`
-file, written in place (core/storage.py's two slots make a cut write harmless). MSP_REBOOT
+file, written in place (core/config/storage.py's two slots make a cut write harmless). MSP_REBOOT
 restarts the simulated controller as a board would: a new flight from the stored parameters, the
 craft back on the ground, the TCP listeners and their clients kept.
 """
@@ -16,8 +16,8 @@ craft back on the ground, the TCP listeners and their clients kept.
 import socket
 
 from hoverfly.core.board import SERIAL_CONFIG, SERIAL_MAINT
-from hoverfly.core.links import attach
-from hoverfly.core.storage import Storage
+from hoverfly.core.config.storage import Storage
+from hoverfly.core.links.task import attach
 from hoverfly.errors import UserError
 
 HOST = "127.0.0.1"

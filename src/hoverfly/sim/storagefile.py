@@ -1,6 +1,6 @@
 """The simulator's flash: the parameter image as a file on the host (`hoverfly sim --storage PATH`).
 
-Takes a path (or None: no storage file, nothing kept) and the image bytes core/storage.py
+Takes a path (or None: no storage file, nothing kept) and the image bytes core/config/storage.py
 builds; gives them back at the next boot. Used by the sim board's `load_storage` and
 `save_storage`. A module of its own so the board does not import the TCP server (sim/server.py),
 which imports the runner, which imports the board: that was an import circle.

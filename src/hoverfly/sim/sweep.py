@@ -18,7 +18,7 @@ import os
 import random
 import time
 
-from hoverfly.core.params import check
+from hoverfly.core.config.params import check
 from hoverfly.errors import UserError
 
 # Columns of a row, in order: the job, then what the flight did.

@@ -21,8 +21,8 @@ CPython only.
 
 import os
 
-from hoverfly.core.cliserver import format_value
-from hoverfly.core.params import PARAMS, check
+from hoverfly.core.config.params import PARAMS, check
+from hoverfly.core.links.cliserver import format_value
 from hoverfly.errors import UserError
 from hoverfly.sim.physics import G_M_S2
 
@@ -116,7 +116,7 @@ _TABLE = {r[0]: r for r in PARAMS}
 
 def check_airframe(airframe):
     """UserError if the airframe cannot hover with margin: nothing to tune."""
-    from hoverfly.core.mixer import MIXER_TABLES
+    from hoverfly.core.stages.mixer import MIXER_TABLES
 
     frame = airframe.get("frame", "quadx")
     if frame not in MIXER_TABLES:
@@ -151,7 +151,7 @@ def _proposal(trial_or_values, airframe):
 
 def hand_tune(airframe):
     """The airframe's own values (or the defaults) of the searched parameters."""
-    from hoverfly.core.params import Params
+    from hoverfly.core.config.params import Params
 
     p = Params()
     for name, value in airframe.get("params", {}).items():

@@ -8,7 +8,7 @@ servo, battery voltage and current (ADC), the status LED, parameter storage in a
 USB (SERIAL_CONFIG: CLI + MSP) and UART0 (SERIAL_MAINT: the HC-05 maintenance link).
 MicroPython-only: this is the one place that imports `machine`.
 
-Outputs go through the core's output codec (core/output.py `OutputEncoder`, set up by
+Outputs go through the core's output codec (core/stages/output.py `OutputEncoder`, set up by
 `configure_outputs` from `motor_protocol`, `motor_order`, `output_fs_ms` ...): DShot words
 into one PIO state machine per output line (dshot_pio.py), or PWM/OneShot/Multishot widths
 as machine.PWM duty. A machine.Timer (OUTPUT_TIMER_MS) runs the encoder's output failsafe
@@ -42,7 +42,7 @@ import machine
 from hoverfly.boards.rp2 import pins as P
 from hoverfly.compat import ticks_diff
 from hoverfly.core.board import SERIAL_CONFIG, SERIAL_MAINT, Board
-from hoverfly.core.output import MAX_SERVOS, OutputEncoder
+from hoverfly.core.stages.output import MAX_SERVOS, OutputEncoder
 
 FAULT_IMU_ABSENT = 1  # no IMU answered at boot, wrong chip, or an IMU type this board does not know
 FAULT_IMU_BUS = 2  # the IMU stopped answering in flight (consecutive bus errors)
@@ -213,7 +213,7 @@ class Rp2Board(Board):
         self._setup_imu()
         self._setup_rx()
         if params is None:
-            from hoverfly.core.params import Params
+            from hoverfly.core.config.params import Params
 
             params = Params()
             err = params.set("motor_protocol", self.motor_protocol)
@@ -393,12 +393,12 @@ class Rp2Board(Board):
         return n
 
     def start_rx_core1(self, receiver, start=None):
-        """rx_core1: the serial receiver's UART and codec move to core 1 (core/rxcore.py); the flight's
+        """rx_core1: the serial receiver's UART and codec move to core 1 (core/stages/rxcore.py); the flight's
         receiver task takes the frames it publishes. `start(fn, args)` starts core 1 (_thread's
         start_new_thread). False, and nothing changes, for a pin-edge receiver or no receiver."""
         if self._uart is None:
             return False
-        from hoverfly.core.rxcore import RxLink
+        from hoverfly.core.stages.rxcore import RxLink
 
         link = RxLink()
         core = receiver.use_core1(link)
@@ -420,7 +420,7 @@ class Rp2Board(Board):
         if link is None:
             return True
         from hoverfly.compat import sleep_us
-        from hoverfly.core.rxcore import IDLE_US, W_RUNNING, W_STOP
+        from hoverfly.core.stages.rxcore import IDLE_US, W_RUNNING, W_STOP
 
         w = link.words
         w[W_STOP] = 1

@@ -1,11 +1,11 @@
 """Boot and main loop on the Pico: board set-up, the flight pass at loop_hz, GC in the slack.
 
-`main()` builds the Rp2Board (pins.py), loads the stored parameters (core/storage.py: the
+`main()` builds the Rp2Board (pins.py), loads the stored parameters (core/config/storage.py: the
 two-slot image in the board's flash file), starts every device and prints one status line,
-builds the Flight, attaches the configuration links (core/links.py: CLI, MSP and the maintenance
+builds the Flight, attaches the configuration links (core/links/task.py: CLI, MSP and the maintenance
 protocol on USB, the maintenance protocol on the HC-05 UART, a task at serial_update_hz; MSP_REBOOT
 resets the board once its reply is out) and runs the pass at `loop_hz` on the
-tick clock; with `rx_core1` the serial receiver is read and parsed on core 1 (core/rxcore.py).
+tick clock; with `rx_core1` the serial receiver is read and parsed on core 1 (core/stages/rxcore.py).
 After each pass it collects garbage only when the time left before the next
 pass is larger than a collection costs and the free heap is getting low — never
 mid-pass (core/scheduler.py `HeapWatch`: gc.mem_free() walks the whole heap, so it is asked
@@ -19,7 +19,7 @@ the core refuses to arm (no IMU, no link) or disarms (IMU stale); the board stop
 motors itself for any IMU or output fault, and its output timer disarms every line
 when the loop stops writing (the output failsafe). No link can stop the loop: what a slow task (the
 configuration links, the battery, the arming task), the receiver telemetry or the log raises is caught at
-that boundary inside the flight core (core/scheduler.py, Flight, core/logger.py), counted, shown in the
+that boundary inside the flight core (core/scheduler.py, Flight, core/log/logger.py), counted, shown in the
 built-in test and the CLI status, and the pass goes on. An exception in the pass itself stops the motors,
 prints the status, what the boundaries caught and the exception, and returns to the REPL. MicroPython-only.
 """
@@ -74,10 +74,10 @@ def make_board(imu="mpu6050", rx="crsf", motors="dshot600", **kw):
 
 def main(board=None, params=None, passes=-1, on_pass=None, overrides=()):
     """Boot and fly: returns (flight, stats) when `passes` ran out (tests) or the loop stopped."""
+    from hoverfly.core.config.params import Params
+    from hoverfly.core.config.storage import Storage
     from hoverfly.core.flight import Flight
-    from hoverfly.core.links import attach
-    from hoverfly.core.params import Params
-    from hoverfly.core.storage import Storage
+    from hoverfly.core.links.task import attach
 
     chosen = board is not None  # a board built by the caller keeps its own IMU/receiver/motor choice
     if board is None:

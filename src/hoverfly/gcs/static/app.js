@@ -207,7 +207,7 @@ function renderStatus(s) {
       return el;
     }));
   } else if (typeof bits === "number") {
-    // The built-in test word (core/bit.py: bit set = check failing). The backend may name the
+    // The built-in test word (core/safety/bit.py: bit set = check failing). The backend may name the
     // failing checks in bit_texts; without it each set bit is listed by number.
     const texts = Array.isArray(s.bit_texts) ? s.bit_texts : null;
     if (bits === 0) {

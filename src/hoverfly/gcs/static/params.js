@@ -1,5 +1,5 @@
 // The Parameters screen: the controller's whole parameter table (from the schema the backend
-// reads out of core/params.py), grouped and searchable, with every edit checked against the
+// reads out of core/config/params.py), grouped and searchable, with every edit checked against the
 // row's range or choices before anything is sent; Apply sends the edits, Save also writes them
 // to flash; export the diff against defaults; import a diff file through a preview.
 

@@ -4,7 +4,7 @@
 
 const $ = (id) => document.getElementById(id);
 
-// rc_map's digits are the receiver channel of each function, in this order (core/params.py).
+// rc_map's digits are the receiver channel of each function, in this order (core/config/params.py).
 const FUNCTIONS = ["A", "E", "R", "T", "1", "2", "3", "4"];
 const FUNCTION_NAMES = { A: "roll", E: "pitch", R: "yaw", T: "throttle", 1: "AUX1", 2: "AUX2", 3: "AUX3", 4: "AUX4" };
 const MODE_NAMES = { arm: "ARM", angle: "ANGLE", horizon: "HORIZON", airmode: "AIR MODE", fs_switch: "FAILSAFE",

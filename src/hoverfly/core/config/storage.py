@@ -29,8 +29,8 @@ older format goes through MIGRATIONS.
 from struct import pack, pack_into, unpack_from
 
 from hoverfly.compat import const
-from hoverfly.core.mixer import MIXER_TABLES
-from hoverfly.core.params import PARAMS, check
+from hoverfly.core.config.params import PARAMS, check
+from hoverfly.core.stages.mixer import MIXER_TABLES
 
 MAGIC = b"HVFP"
 FORMAT = const(1)  # newest record layout this firmware writes

@@ -13,7 +13,7 @@ multiplied by (180/pi)/1000.
 import math
 from array import array
 
-from hoverfly.core.filters import LowPass, Pt1
+from hoverfly.core.stages.filters import LowPass, Pt1
 
 _RAD_TO_DEG = 180.0 / math.pi
 _P_SCALE = 0.032029 * _RAD_TO_DEG * 1e-3

@@ -11,7 +11,7 @@ import math
 from array import array
 
 from hoverfly.compat import const
-from hoverfly.core.pid import AxisPid
+from hoverfly.core.stages.pid import AxisPid
 
 MODE_ACRO = const(0)
 MODE_ANGLE = const(1)

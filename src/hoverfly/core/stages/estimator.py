@@ -118,7 +118,7 @@ class Attitude:
     """The estimate every stage reads: quaternion body->NED and Euler angles in radians.
 
     The angles are both attributes and the array `angles` (ROLL, PITCH, YAW, COS_TILT): the fixed-point
-    estimator (core/fixedatt.py) writes the array without making a float object, and the attributes
+    estimator (core/fastpass/fixedatt.py) writes the array without making a float object, and the attributes
     from it when asked (`set_from_angles`)."""
 
     def __init__(self):

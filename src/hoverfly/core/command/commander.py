@@ -18,10 +18,10 @@ rather than the set point (disarmed only): Flight._outputs gives it its word aft
 """
 
 from hoverfly.compat import const
-from hoverfly.core.autopilot import AP_ENABLED
-from hoverfly.core.control import MODE_ANGLE
+from hoverfly.core.command.autopilot import AP_ENABLED
 from hoverfly.core.events import EV_AIRMODE, EV_MODE
-from hoverfly.core.failsafe import PROC_DROP, PROC_GLIDE, PROC_LAND, STAGE2
+from hoverfly.core.safety.failsafe import PROC_DROP, PROC_GLIDE, PROC_LAND, STAGE2
+from hoverfly.core.stages.control import MODE_ANGLE
 
 SOURCE_FAILSAFE = const(1)  # the failsafe flies (stage 1 or 2)
 SOURCE_AUTOPILOT = const(2)  # the autopilot is enabled, or holds the pilot's throttle at its latch

@@ -1,7 +1,7 @@
 """The flight log's fast frame: its byte layout, and the pass record the signals can live in.
 
 Takes nothing at run time; gives the layout of one logged pass (the D messages of the six fast
-topics back to back, see core/logger.py) and `PassRecord`, one preallocated block of that
+topics back to back, see core/log/logger.py) and `PassRecord`, one preallocated block of that
 layout. Signals builds its logged arrays through `PassRecord.floats()`: where the runtime can
 view a bytearray as floats (CPython's memoryview.cast) each array is a view into the block, so
 the stages write their results straight into the frame and logging a pass is a few scalar
@@ -12,12 +12,12 @@ cast) `floats()` gives plain arrays and the logger packs the frame instead.
 import struct
 from array import array
 
-from hoverfly.core.mixer import MAX_MOTORS
+from hoverfly.core.stages.mixer import MAX_MOTORS
 
 MAX_OUTPUTS = 16  # PX4 actuator_outputs.output[16]
 
 # The packing of each fast topic's D payload after its 5-byte header, in FAST_TOPICS order
-# (core/logger.py). An array signal goes in whole as its raw bytes ('Ns'): array('f') holds IEEE
+# (core/log/logger.py). An array signal goes in whole as its raw bytes ('Ns'): array('f') holds IEEE
 # float32 in the host's order, little-endian on every target (x86, ARM, RP2040) as ULog is.
 # Constant zero fields are 'x'.
 FAST_PACK = (
@@ -31,9 +31,9 @@ FAST_PACK = (
 )
 # The rate setpoint's scalars end its message and hoverfly_pid's start the next one, so the scalars
 # that change pass to pass are one run of the frame (with hoverfly_pid's header and timestamp
-# between them): core/logger.py stores them with one pack a pass.
+# between them): core/log/logger.py stores them with one pack a pass.
 # The frame is a whole number of 8-byte words (344 bytes; hoverfly_pid's mode byte makes it so), so
-# the staged frames' timestamps are one strided column per field: core/logger.py fills them once
+# the staged frames' timestamps are one strided column per field: core/log/logger.py fills them once
 # a batch instead of seven stores a pass. (Trailing `_padding` bytes would do the same, but pyulog
 # 1.3 counts a message longer than its fields as corrupt.)
 # The array fields ('s' above) in frame order: the signal each one logs, and its float count.

@@ -11,7 +11,7 @@ mode, one frame right after an RC frame at most every 25 ms (CrsfTelemetrySchedu
 It runs in the receiver task (500 Hz), never in the flight pass; Flight.task_rx hands
 the channels to the RC input stage and decides link lost / restored from `last_frame_us`.
 With `rx_core1` (rp2 board, `use_core1`) the UART and the codec are the second core's
-(core/rxcore.py): update() takes the frames it published instead of reading, and the
+(core/stages/rxcore.py): update() takes the frames it published instead of reading, and the
 telemetry frames go back out through it; everything else here is unchanged.
 
 What counts as a valid frame: a frame the codec accepted (CRC, checksum, footer, pulse
@@ -30,7 +30,7 @@ errors; a window without any frame reads 0. Their `rssi_dbm` is 0 (unknown).
 from array import array
 
 from hoverfly.compat import const, ticks_add, ticks_diff
-from hoverfly.core.arming import ARM_SWITCH
+from hoverfly.core.safety.arming import ARM_SWITCH
 from hoverfly.protocols.rxcodec import CHANNELS
 from hoverfly.protocols.rxfactory import make_decoder
 
@@ -165,7 +165,7 @@ class Receiver:
         frames go out through it. None for pin-edge receivers (PPM/PWM), which stay here."""
         if not self.serial or self._link is not None:
             return None
-        from hoverfly.core.rxcore import LinkView, RxCore
+        from hoverfly.core.stages.rxcore import LinkView, RxCore
 
         core = RxCore(link, self.decoder)
         view = LinkView(link)

@@ -1,6 +1,6 @@
 """The supervisor: may the craft fly? Arming, the 100 Hz safety task, the failsafe's stages, the battery.
 
-Beside the pass, not in it. core/arming.py holds the rules (the reasons, the arm sources, the disarm rule);
+Beside the pass, not in it. core/safety/arming.py holds the rules (the reasons, the arm sources, the disarm rule);
 this stage feeds them and makes every arming decision that is not the pilot's switch or the autopilot's
 request: it disarms for an IMU fault, a crash, a loop overload or the failsafe switch, works the arming
 reasons out (every 100 Hz run while disarmed, again at once after a disarm and at an arm request), runs
@@ -11,7 +11,10 @@ links'), the last IMU sample's time, and the restarts only the loop can do (esti
 """
 
 from hoverfly.compat import ticks_diff
-from hoverfly.core.arming import (
+from hoverfly.core.command.autopilot import AP_ENABLED
+from hoverfly.core.config.params import FS_SWITCH_MODES
+from hoverfly.core.events import DISARM_CRASH, DISARM_FS_SWITCH, DISARM_IMU, DISARM_LOAD, EV_CRASH, EV_IMU_FAULT
+from hoverfly.core.safety.arming import (
     AUTOPILOT,
     BATTERY_CRITICAL,
     BIT_FAILED,
@@ -21,9 +24,7 @@ from hoverfly.core.arming import (
     MOTOR_TEST,
     session_flags,
 )
-from hoverfly.core.autopilot import AP_ENABLED
-from hoverfly.core.events import DISARM_CRASH, DISARM_FS_SWITCH, DISARM_IMU, DISARM_LOAD, EV_CRASH, EV_IMU_FAULT
-from hoverfly.core.failsafe import (
+from hoverfly.core.safety.failsafe import (
     CAUSE_NO_FRAMES,
     CAUSE_SWITCH,
     FAULT_IMU_NONFINITE,
@@ -31,7 +32,6 @@ from hoverfly.core.failsafe import (
     IDLE,
     SWITCH_STAGE2,
 )
-from hoverfly.core.params import FS_SWITCH_MODES
 from hoverfly.core.scheduler import PS_PASSES
 
 

@@ -3,20 +3,20 @@
 Takes the bytes typed on the CLI/MSP port after `#` entered the CLI (`CliServer.feed(data, n,
 write)`, any chunking; CR or LF ends a line, backspace edits, characters are echoed as
 Betaflight does) and the Flight; gives text lines through `write(bytes)`. Every name, range and
-default comes from core/params.py; Betaflight's long names are accepted where hoverfly's differ
+default comes from core/config/params.py; Betaflight's long names are accepted where hoverfly's differ
 (ALIASES, with the unit conversion). While the CLI is open flight.config_session bit 1 blocks
 arming; while armed, set, save and defaults are refused. Runs from the links task, never in the
 flight pass.
 """
 
 from hoverfly import __version__
-from hoverfly.core.arming import reason_names
-from hoverfly.core.mspserver import CONFIG_CLI, reason_words
-from hoverfly.core.params import ALIASES, PARAMS, REBOOT, check, is_choice, row
-from hoverfly.core.params import resolve as _resolve
-from hoverfly.core.rc import map_text, map_value
+from hoverfly.core.config.params import ALIASES, PARAMS, REBOOT, check, is_choice, row
+from hoverfly.core.config.params import resolve as _resolve
+from hoverfly.core.config.storage import STATUS_NAMES
+from hoverfly.core.links.mspserver import CONFIG_CLI, reason_words
+from hoverfly.core.safety.arming import reason_names
 from hoverfly.core.scheduler import PS_CYCLE, PS_CYCLE_MAX, PS_JITTER_MAX
-from hoverfly.core.storage import STATUS_NAMES
+from hoverfly.core.stages.rc import map_text, map_value
 
 HELP = (
     "help                      this list",
@@ -333,6 +333,7 @@ class CliServer:
         if line is not None:
             out.append("Board: %s" % line())
         out.append("Config session: %d" % getattr(f, "config_session", 0))
-        if getattr(self, "links", None) is not None:  # set by core/links.py: requests, waits and drops of the ports
+        # self.links is set by core/links/task.py: requests, waits and drops of the ports
+        if getattr(self, "links", None) is not None:
             out.append(self.links.status_line())
         return out

@@ -1,6 +1,6 @@
 """The attitude estimator (Mahony) in fixed point: the gyro average, the update and the Euler angles as integers.
 
-Takes the float stage's configured gains (core/estimator.py `Mahony`), the pass's filtered gyro and
+Takes the float stage's configured gains (core/stages/estimator.py `Mahony`), the pass's filtered gyro and
 accelerometer, and the quaternion and gyro bias where the float stage keeps them (`Attitude.q`,
 `Mahony.bias_rad_s`: float32 arrays, read and written as such, so either stage can run the next
 update and nothing needs handing over); gives the quaternion, the bias and `Attitude.angles` (roll,

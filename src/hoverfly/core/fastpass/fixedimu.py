@@ -1,6 +1,6 @@
 """The IMU filters of the pass in fixed point: the gyro's PT1 and the accelerometer's PT2 as integers.
 
-Takes the float filter stages' configured gains (core/filters.py `GyroFilter`, `AccelFilter`) and
+Takes the float filter stages' configured gains (core/stages/filters.py `GyroFilter`, `AccelFilter`) and
 the pass's sample arrays; gives the filtered gyro and accelerometer in the same arrays as the float
 stages, with no float object made on MicroPython. Every float result there is a heap object: the
 two filters made 39 of them a pass (1.2 kB on the 64-bit VM, bench/core_stages.py), a third of the
@@ -9,7 +9,7 @@ is the one source of that arithmetic. On MicroPython its viper twin (accel/imufi
 from it by hoverfly.fastgen, docs/fastpass.md) stands in for `update`; tests/portable/test_fixedimu.py
 holds the two equal bit for bit.
 
-Chosen with the fixed rate loop (core/fixedrate.py): where `pid_math` runs the controller and
+Chosen with the fixed rate loop (core/fastpass/fixedrate.py): where `pid_math` runs the controller and
 mixer in fixed point, the IMU filters go too, for the default gyro chain only (low-pass 1 a PT1,
 low-pass 2 and the notch off); any other chain keeps the float stages.
 

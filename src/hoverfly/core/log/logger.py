@@ -35,8 +35,7 @@ import struct
 from array import array
 
 from hoverfly.compat import IS_MICROPYTHON, ticks_diff
-from hoverfly.core.arming import REASONS
-from hoverfly.core.control import MODE_NAMES
+from hoverfly.core.config.params import PARAMS
 from hoverfly.core.events import (
     DISARM_REASONS,
     EV_ARMING_BLOCKED,
@@ -51,7 +50,7 @@ from hoverfly.core.events import (
     EV_RX_LOST,
     EVENT_NAMES,
 )
-from hoverfly.core.logframe import (
+from hoverfly.core.log.logframe import (
     ARRAY_FIELDS,
     FAST_PACK,
     HEADER_BYTES,
@@ -59,8 +58,9 @@ from hoverfly.core.logframe import (
     frame_format,
     header_offsets,
 )
-from hoverfly.core.params import PARAMS
+from hoverfly.core.safety.arming import REASONS
 from hoverfly.core.scheduler import PS_CYCLE, PS_CYCLE_MAX, PS_JITTER_MAX, PS_PASSES
+from hoverfly.core.stages.control import MODE_NAMES
 from hoverfly.protocols.ulog import UlogWriter
 
 _SLOW_HZ = 10  # battery, status, loop and link topics
@@ -205,8 +205,8 @@ FAST_TOPICS = ("vehicle_attitude", "vehicle_angular_velocity", "actuator_outputs
 SLOW_TOPICS = ("battery_status", "vehicle_status", "hoverfly_loop", "hoverfly_link")
 
 # The fast frame's layout (FAST_PACK, one struct format per topic after its header) lives in
-# core/logframe.py, with the pass record the signals' logged arrays live in where they can.
-# The record path's changing scalars, one run of the frame (core/logframe.py): rates setpoint
+# core/log/logframe.py, with the pass record the signals' logged arrays live in where they can.
+# The record path's changing scalars, one run of the frame (core/log/logframe.py): rates setpoint
 # thrust_body[2], reset_integral; hoverfly_pid header, timestamp, tpa, i_active, airmode_active,
 # saturated, mode. ('?' is CPython's: the record path is CPython's.)
 _SCALARS = "<f?5sQf???B"
@@ -322,7 +322,7 @@ class Logger:
         self._pid_header = b""  # hoverfly_pid's header, inside that run
         self._nout = None  # actuator_outputs.noutputs
         self._integral_dt = ()  # sensor_combined gyro_integral_dt, accelerometer_integral_dt
-        self._fast_n = struct.calcsize(self._fmt)  # a whole number of 8-byte words (core/logframe.py)
+        self._fast_n = struct.calcsize(self._fmt)  # a whole number of 8-byte words (core/log/logframe.py)
         self._rc_n = struct.calcsize(_RC_PACK)
         # The stage: up to `_batch` fast frames at a stride of _fast_n bytes, and room after them for
         # as many input_rc samples (at most one per logged pass), which wait in _rc_stage until the
@@ -509,7 +509,7 @@ class Logger:
 
     def _record_views(self, record, headers):
         """The pass record path: when the signals' logged arrays are views into one frame-shaped
-        block (core/logframe.py), the headers and constant fields go in once, every pass packs
+        block (core/log/logframe.py), the headers and constant fields go in once, every pass packs
         the changing scalars into it and copies the block; returns the block's bytes. None when
         they are not (MicroPython, or an array replaced since): the frame is packed instead."""
         if record is None or not record.backed or not self.record_path:
@@ -537,7 +537,7 @@ class Logger:
         # i_active, airmode_active, saturated and mode.
         floats = field_offsets("f")
         if floats[1][0] - floats[0][0] != struct.calcsize(_SCALARS) - struct.calcsize("<f???B"):
-            return None  # a layout without the run (core/logframe.py): pack the frame
+            return None  # a layout without the run (core/log/logframe.py): pack the frame
         self._at_thrust = floats[0][0]
         self._pid_header = headers[len(headers) - 1]
         return buf

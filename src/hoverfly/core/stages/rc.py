@@ -28,9 +28,9 @@ import math
 from array import array
 
 from hoverfly.compat import accel_module, const
-from hoverfly.core.control import MODE_ACRO, MODE_ANGLE, MODE_HORIZON
-from hoverfly.core.filters import AlphaBeta, Pt1, Pt2
-from hoverfly.core.rates import ActualRates
+from hoverfly.core.stages.control import MODE_ACRO, MODE_ANGLE, MODE_HORIZON
+from hoverfly.core.stages.filters import AlphaBeta, Pt1, Pt2
+from hoverfly.core.stages.rates import ActualRates
 from hoverfly.protocols.rxcodec import CHANNELS
 
 _DEG = math.pi / 180.0

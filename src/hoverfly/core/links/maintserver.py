@@ -27,8 +27,8 @@ from array import array
 
 from hoverfly import VERSION
 from hoverfly.compat import ticks_diff
-from hoverfly.core.mspserver import CONFIG_MAINT, ParsedRequests
-from hoverfly.core.rc import aux_channel
+from hoverfly.core.links.mspserver import CONFIG_MAINT, ParsedRequests
+from hoverfly.core.stages.rc import aux_channel
 from hoverfly.protocols import maintenance as mp
 
 ERROR_CMD = 127
@@ -283,7 +283,7 @@ class MaintServer(ParsedRequests):
         return None
 
     def _motor(self, cmd, pulse_us):
-        """Commands 1-5: the props-off motor test (core/motortest.py) on enabled motors. A pulse above
+        """Commands 1-5: the props-off motor test (core/command/motortest.py) on enabled motors. A pulse above
         the test's cap (motor_test_pct) or the motor's motorN_max_us runs at that cap, one between 1000 us
         and the motor's floor (motorN_min_us, the idle output) at the floor: the command is carried out
         and motorN_signal reads the value the motor runs at from this reply on; `capped` counts it and

@@ -5,7 +5,7 @@ of them a pass (bench/core_stages.py). `FixedRate` runs the same arithmetic on s
 `rate_pass` below is its one source. On MicroPython its viper twin (accel/rate.py, generated from it by
 hoverfly.fastgen, docs/fastpass.md) stands in for `update`; tests/portable/test_fixedrate.py holds the
 two equal bit for bit. The float stages
-(core/control.py, core/pid.py, core/mixer.py) stay the reference for what the numbers mean: the
+(core/stages/control.py, core/stages/pid.py, core/stages/mixer.py) stay the reference for what the numbers mean: the
 coefficients here are worked out from their configured values, and the results agree with theirs
 within the rounding the formats below allow (the same test).
 
@@ -31,8 +31,8 @@ Inputs that are not numbers (NaN) read as 0, infinities as the clamp.
 from array import array
 
 from hoverfly.compat import IS_MICROPYTHON, const
-from hoverfly.core.control import MODE_ACRO, MODE_ANGLE
-from hoverfly.core.pid import RELAX_THRESHOLD_RAD_S
+from hoverfly.core.stages.control import MODE_ACRO, MODE_ANGLE
+from hoverfly.core.stages.pid import RELAX_THRESHOLD_RAD_S
 
 # ---- coefficient layout (co, array "i")
 ANG_GAIN_M = const(0)
@@ -189,7 +189,7 @@ def _level_rate(co, st, last, angle_sp, angle, inv_dt):
 # fastpass: FixedRate.update co:i st:i fin:f gyro:f rate:f stick:f terms:f torque:f motor:f
 def rate_pass(co, st, io, flags, dt_us):
     """One pass of the angle loop, the three rate PIDs and the mixer. io = (fin, gyro, rate, stick,
-    terms, torque, motor): float arrays, read and written as core/control.py and core/mixer.py do.
+    terms, torque, motor): float arrays, read and written as core/stages/control.py and core/stages/mixer.py do.
     Returns bit 0: saturated, bit 1: the TPA factor changed (st[S_TPA], Q15)."""
     fin, gyro, rate, stick, terms, torque, motor = io
     mul = _mul
@@ -335,7 +335,7 @@ def rate_pass(co, st, io, flags, dt_us):
             terms[k + 6] = d * _INV16
             terms[k + 9] = f * _INV16
             torque[k] = out * _INV16
-    # the mixer: torques to motors, desaturated as core/mixer.py does
+    # the mixer: torques to motors, desaturated as core/stages/mixer.py does
     r = st[S_OUT]
     pt = st[ST_AX + S_OUT]
     yw = st[2 * ST_AX + S_OUT]

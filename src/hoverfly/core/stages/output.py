@@ -23,7 +23,7 @@ Step 6 of the pass, in two halves on either side of `board.write_motors`:
   the protocol's minimum pulse, servo centre) until commands resume.
 
 Portable: runs on the Pico (MicroPython) and in the simulator. Nothing here allocates per pass
-except float results. With the fixed rate loop (`pid_math`, core/fixedrate.py) the motor commands
+except float results. With the fixed rate loop (`pid_math`, core/fastpass/fixedrate.py) the motor commands
 are worked out in fixed point instead (`OutputStage.update_fixed`, `motors_fixed`): the demand
 truncated to Q16, idle + span * demand in Q16 with the span Q14, so a command is within 2**-14 of
 the float stage's (a DShot step is 5e-4); its viper twin (accel/output.py) makes no float at all.
@@ -32,8 +32,8 @@ the float stage's (a DShot step is 5e-4); its viper twin (accel/output.py) makes
 from array import array
 
 from hoverfly.compat import IS_MICROPYTHON, const, ticks_diff
-from hoverfly.core.mixer import MAX_MOTORS
-from hoverfly.core.params import row
+from hoverfly.core.config.params import row
+from hoverfly.core.stages.mixer import MAX_MOTORS
 from hoverfly.protocols import analog
 from hoverfly.protocols.dshot import (
     CMD_3D_MODE_OFF,

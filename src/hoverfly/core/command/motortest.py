@@ -17,7 +17,7 @@ idle output, so a test never asks an ESC for less than flight does).
 from array import array
 
 from hoverfly.compat import const, ticks_diff
-from hoverfly.core.mixer import MAX_MOTORS
+from hoverfly.core.stages.mixer import MAX_MOTORS
 
 EXPIRE_US = const(1000000)
 

@@ -28,14 +28,14 @@ The receiver failsafe outranks the autopilot: with the pilot's link lost nobody 
 from array import array
 
 from hoverfly.compat import const, ticks_diff
-from hoverfly.core.arming import AUTOPILOT, REASONS, SOURCE_AUTOPILOT, first_reason
 from hoverfly.core.events import (
     DISARM_COMMAND,
     EV_AUTOPILOT_DISABLED,
     EV_AUTOPILOT_ENABLED,
     EV_AUTOPILOT_OVERRIDE,
 )
-from hoverfly.core.rc import aux_channel, map_channels
+from hoverfly.core.safety.arming import AUTOPILOT, REASONS, SOURCE_AUTOPILOT, first_reason
+from hoverfly.core.stages.rc import aux_channel, map_channels
 
 AP_OFF = const(0)  # autopilot switch off: the pilot flies and arms
 AP_WAIT = const(1)  # switch on, waiting for the arm switch to come on after it

@@ -4,7 +4,7 @@ Takes request bytes of the CLI/MSP port (`MspServer.feed(data, n, write)`, any c
 Flight; gives reply frames through `write(bytes)`, in the version (v1, v2, v2-over-v1) each
 request came in, error frames (`!`) for unknown commands, bad payloads and refused writes.
 Payloads are msp.py's packers in Betaflight's layouts; this module chooses the values and
-converts SI to wire units once. Runs from the configuration-links task (core/links.py, 100 Hz),
+converts SI to wire units once. Runs from the configuration-links task (core/links/task.py, 100 Hz),
 never in the flight pass. `# ` on an idle port is the CLI's business (links.ConfigPort).
 
 Writes: SET_RAW_RC goes to flight.on_msp_rc (the autopilot source, any time); SET_PID,
@@ -19,16 +19,16 @@ from struct import pack
 
 from hoverfly import VERSION
 from hoverfly.compat import ticks_diff
-from hoverfly.core.arming import REASONS
-from hoverfly.core.autopilot import AP_ENABLED, LATCH_HARD
-from hoverfly.core.control import MODE_ANGLE, MODE_HORIZON
-from hoverfly.core.failsafe import IDLE
-from hoverfly.core.motortest import STOP_LINK
-from hoverfly.core.rc import map_channels
+from hoverfly.core.command.autopilot import AP_ENABLED, LATCH_HARD
+from hoverfly.core.command.motortest import STOP_LINK
+from hoverfly.core.safety.arming import REASONS
+from hoverfly.core.safety.failsafe import IDLE
 from hoverfly.core.scheduler import PS_CYCLE
+from hoverfly.core.stages.control import MODE_ANGLE, MODE_HORIZON
+from hoverfly.core.stages.rc import map_channels
 from hoverfly.protocols import msp
 
-CONFIG_CLI = 1  # flight.config_session bits (core/arming.py blocks arming while any is set)
+CONFIG_CLI = 1  # flight.config_session bits (core/safety/arming.py blocks arming while any is set)
 CONFIG_MSP = 2
 CONFIG_MAINT = 4
 CONFIG_MAINT_USB = 8  # the maintenance protocol on the config (USB) port: a session of its own

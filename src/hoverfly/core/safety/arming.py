@@ -13,7 +13,7 @@ Arm sources:
   must be toggled (ARM_SWITCH), and so must one that reads on after a configuration change
   (`config_changed`: Betaflight's rule, a switch moved under by a new ARM range must be seen off first);
 - the autopilot over MSP (seed 004), through `try_arm` with the autopilot's own throttle,
-  only when the enabling procedure allows it (core/autopilot.py decides).
+  only when the enabling procedure allows it (core/command/autopilot.py decides).
 An arm request meets the reasons as they stand at that frame: on the switch's rising edge (and
 in try_arm) `on_reasons` lets the flight work them out again first (adding to the slow task's, never
 clearing one), so a throttle raised in the same frame as the switch is refused (THROTTLE), not met by

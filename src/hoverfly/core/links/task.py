@@ -23,9 +23,9 @@ Sits beside the flight pass as a scheduler task; a pass never waits on a port.
 
 from hoverfly.compat import const, ticks_diff
 from hoverfly.core.board import SERIAL_CONFIG, SERIAL_MAINT
-from hoverfly.core.cliserver import CliServer
-from hoverfly.core.maintserver import MaintServer
-from hoverfly.core.mspserver import CONFIG_MAINT_USB, MspServer
+from hoverfly.core.links.cliserver import CliServer
+from hoverfly.core.links.maintserver import MaintServer
+from hoverfly.core.links.mspserver import CONFIG_MAINT_USB, MspServer
 
 LINKS_HZ = 100  # serial_update_hz's default (Betaflight's serial_update_rate_hz)
 REQUESTS_PER_RUN = const(16)  # per port: 1 600 requests/s at 100 Hz, 16 000 at 1 kHz

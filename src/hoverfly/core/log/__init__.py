@@ -1,0 +1,1 @@
+"""The flight log: what is logged and how it is framed."""
