@@ -158,9 +158,9 @@ def attr_room(obj):
     """On MicroPython, while obj's attribute table is more than ROOM_LOAD_PCT full, add spare attributes
     (`_room<n>`, None; n counts the attributes, so a later call adds new names) until it has grown to a
     size with that much room; returns how many
-    (0 on CPython, whose dicts keep their own room). For an object the pass reads many times: the Flight's
-    69 attributes filled 69 of 73 slots, and its look-ups cost about 2k instructions a pass more than at
-    74 of 97 (bench/core_instructions.py)."""
+    (0 on CPython, whose dicts keep their own room). For an object the pass reads many times (the Flight,
+    its commander and supervisor): in a nearly full table every method call's missed instance look-up
+    probes a long run of slots before it reaches an empty one."""
     if not IS_MICROPYTHON:
         return 0
     n = len(obj.__dict__)

@@ -183,8 +183,9 @@ class Flight:
     def logging_changed(self):
         """The logger started or stopped its every-pass calls (Logger._hand_over; and configure): the fixed
         controller writes its PID terms and torques out every pass while a log runs, else every
-        TERMS_IDLE_PASSES passes, for the maintenance telemetry that reads them (about 3k instructions
-        a pass on MicroPython when written every pass)."""
+        TERMS_IDLE_PASSES passes, for the maintenance telemetry that reads them (written every pass they
+        would be a few per cent of MicroPython's pass; the telemetry reads them at most
+        TERMS_IDLE_PASSES passes old)."""
         self.fixed.terms_every(1 if self.log_pass is not None else TERMS_IDLE_PASSES)
 
     def _att_restart(self):
@@ -216,7 +217,8 @@ class Flight:
         # The pass in stages of their own, each method's frame (locals and value stack) within 11
         # machine words: a bigger one is taken from the heap and freed at every call on MicroPython
         # (bench/frame_sizes.py), and with the pass's float results that costs more than the calls.
-        # This one is at 11: four locals, and the fixed controller's call (seven words of stack).
+        # tests/test_perf_rules.py holds every function of the pass to it. This one is at 11: four
+        # locals, and the fixed controller's call (seven words of stack).
         dt_us = ticks_diff(now_us, self._last_us)
         self.pass_dt_us = dt_us
         self._last_us = now_us

@@ -4,7 +4,7 @@ Each task has a rate in Hz and is due when the tick clock passes its next time; 
 task that fell behind runs once and is rescheduled from now (no bursts of catch-up).
 The fastest task (the receiver's, 500 Hz: every other pass at 1 kHz) is checked on its own;
 the others are looked at only once the soonest of them is due, so a pass that runs just the
-receiver does not walk the whole table (on MicroPython each look is a few thousand instructions).
+receiver does not walk the whole table (on MicroPython each look is calls and attribute look-ups).
 The others keep off a pass that ran the fastest (or another of them) until they have waited one
 loop period: at 1 kHz the receiver's frame and the 100 Hz arming and failsafe task, the two heaviest
 jobs, never share a pass, so the longest pass is one of them and the gyro/PID loop, not both (as
@@ -14,7 +14,8 @@ Each task call is guarded: a task that raises (a link's request handler, a telem
 slow check) is counted against its task with the exception it raised, and the pass and the other
 tasks go on (no link can stop the flight loop). The guard is at the task's dispatch, not in the pass,
 and in a function of its own (`_call`): a `try` takes 3 words of a frame and an `except ... as` 6, so
-Scheduler.run's or _run's frame would leave the C stack (bench/frame_sizes.py) at every task call. The
+Scheduler.run's or _run's frame would leave the C stack (bench/frame_sizes.py; tests/test_perf_rules.py
+holds the pass's functions within 11 words) at every task call. The
 guard's frame is at 11 words with a bare `except`: the exception object comes from sys.exc_info where
 the port has it (CPython, the unix VM), else from a wrapper put around a task once it has raised, until
 it raises again (`_Capture`: only a failing task pays for its frame).

@@ -228,10 +228,10 @@ class BridgeDecoder:
         self.payload = bytearray(MAX_PAYLOAD)
         self.length = 0
         self._q = [bytearray(MAX_PAYLOAD + OVERHEAD) for _ in range(depth)]
-        # SAFETY: the frame being received lives here until its CRC passes. It used to be
-        # written straight into the queue's next slot, which on a full queue is the oldest
-        # waiting frame: a frame that then failed its CRC had already overwritten one that
-        # was about to be delivered (wrong sensor data or motor commands on a HIL link).
+        # SAFETY: the frame being received lives here until its CRC passes, not in the queue's
+        # next slot: on a full queue that slot is the oldest waiting frame, and a frame that then
+        # failed its CRC would already have overwritten one about to be delivered (wrong sensor
+        # data or motor commands on a HIL link).
         self._rx = bytearray(MAX_PAYLOAD + OVERHEAD)
         self._qlen = [0] * depth
         self._qkind = [0] * depth

@@ -3,11 +3,11 @@
 Takes the float filter stages' configured gains (core/stages/filters.py `GyroFilter`, `AccelFilter`) and
 the pass's sample arrays; gives the filtered gyro and accelerometer in the same arrays as the float
 stages, with no float object made on MicroPython. Every float result there is a heap object: the
-two filters made 39 of them a pass (1.2 kB on the 64-bit VM, bench/core_stages.py), a third of the
-pass's allocation. `FixedImuFilter` runs the filters on small integers instead: `filter_pass` below
-is the one source of that arithmetic. On MicroPython its viper twin (accel/imufilter.py, generated
-from it by hoverfly.fastgen, docs/fastpass.md) stands in for `update`; tests/portable/test_fixedimu.py
-holds the two equal bit for bit.
+float filters make 39 of them a pass (1.2 kB on the 64-bit VM, bench/core_stages.py), and what the
+pass allocates sets how often the board must collect. `FixedImuFilter` runs the filters on small
+integers instead: `filter_pass` below is the one source of that arithmetic. On MicroPython its viper
+twin (accel/imufilter.py, generated from it by hoverfly.fastgen, docs/fastpass.md) stands in for
+`update`; tests/portable/test_fixedimu.py holds the two equal bit for bit.
 
 Chosen with the fixed rate loop (core/fastpass/fixedrate.py): where `pid_math` runs the controller and
 mixer in fixed point, the IMU filters go too, for the default gyro chain only (low-pass 1 a PT1,

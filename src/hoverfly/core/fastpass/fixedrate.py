@@ -1,7 +1,7 @@
 """The rate loop in fixed point: the controller's PIDs and the mixer as integers (zero allocation).
 
-On MicroPython every float result is a new heap object; the controller and mixer made about 4.3 kB
-of them a pass (bench/core_stages.py). `FixedRate` runs the same arithmetic on small integers:
+On MicroPython every float result is a new heap object; the float controller and mixer make about
+4.3 kB of them a pass (bench/core_stages.py). `FixedRate` runs the same arithmetic on small integers:
 `rate_pass` below is its one source. On MicroPython its viper twin (accel/rate.py, generated from it by
 hoverfly.fastgen, docs/fastpass.md) stands in for `update`; tests/portable/test_fixedrate.py holds the
 two equal bit for bit. The float stages

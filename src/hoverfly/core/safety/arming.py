@@ -221,7 +221,7 @@ class Arming:
                 if self.on_reasons is not None:
                     # SAFETY: the reasons as they stand at this frame (the slow task's may be 10 ms old);
                     # a configuration change it finds sets _need_toggle. (No local for the hook: this frame
-                    # stays at 11 words, on the C stack, at every frame.)
+                    # stays at 11 words, on the C stack, at every frame; tests/test_perf_rules.py.)
                     self.on_reasons(now_us, True)
                     if self._need_toggle:
                         return

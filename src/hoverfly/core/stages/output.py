@@ -421,7 +421,8 @@ class OutputEncoder:
     def write(self, motor_out, count, now_us):
         """Encode motor_out[0..count-1] (0 = stop, otherwise idle..1) onto the lines; a fresh command."""
         # Few locals: a MicroPython function whose locals and stack pass 11 slots gets its frame from
-        # the heap on every call (allocated and freed: no bytes remain, the allocator's work does).
+        # the heap on every call (allocated and freed: no bytes remain, the allocator's work does;
+        # tests/test_perf_rules.py holds the pass's functions to it).
         # One call encodes every motor onto its line (DshotEncoder.plan); on MicroPython the viper twin
         # reads an array('f')'s float32 bits and makes no float (_f32: one seen before, DShot only).
         if motor_out is self._f32 or (self.dshot and self._takes_bits(motor_out)):
