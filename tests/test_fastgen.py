@@ -222,6 +222,144 @@ print("mismatches", bad)
 '''
 
 
+# Several kernels in one module (rc.py's rc_pass and rc_frame): a method on the call's arrays with unsigned
+# 16-bit ones (receiver channels), their len(), an augmented store and chained comparisons; and a function
+# comparing float locals with each other and storing them (FaultWatch's frozen-sample check), every IEEE 754
+# corner in its inputs.
+DEMO_MULTI = '''
+from array import array
+
+from hoverfly.compat import const
+
+_INF = float("inf")
+_NEG_INF = float("-inf")
+_GROUPS = const(4)
+
+
+def _in(v, lo, hi):
+    return 1 if lo <= v < hi else 0
+
+
+# fastpass: Frames.take ch:H@ src:H@ lims:i@ out:i@
+def frame_bits(ch, src, lims, out):
+    n = len(ch)
+    for i in range(len(src)):
+        ch[i] = src[i]
+    ch[n - 1] += 7
+    r = 0
+    bit = 1
+    k = 0
+    while k < 3 * _GROUPS:
+        c = lims[k]
+        if 0 < c <= n and lims[k + 1] <= ch[c - 1] < lims[k + 2]:
+            r |= bit
+        if lims[k + 1] < c < lims[k + 2] <= n:
+            r |= bit << 8
+        if 0 < c <= n:
+            r += _in(ch[c - 1], lims[k + 1], lims[k + 2]) << 16
+        bit <<= 1
+        k += 3
+    out[0] = r
+    return n
+
+
+class Frames:
+    def __init__(self):
+        self.ch = array("H", [0] * 18)
+        self.lims = array("i", [0] * 12)
+        self.out = array("i", [0])
+        self.n = 0
+
+    def take(self, src):
+        n = frame_bits(self.ch, src, self.lims, self.out)
+        self.n = n + 1
+
+
+# fastpass: float_order a:f b:f out:i
+def float_order(a, b, out, n):
+    total = 0
+    for i in range(n):
+        x = a[i]
+        y = b[i]
+        r = 0
+        if x == y:
+            r |= 1
+        if x != y:
+            r |= 2
+        if x < y:
+            r |= 4
+        if x <= y:
+            r |= 8
+        if y > x:
+            r |= 16
+        if y >= x:
+            r |= 32
+        if _NEG_INF < x < _INF:
+            r |= 64
+        if not (-1.0 <= y <= 1.0):
+            r |= 128
+        out[i] = r
+        b[i] = x
+        total += r
+    return total
+'''
+
+DRIVER_MULTI = '''
+import struct
+from array import array
+import demo_multi
+import demo_multi_fast
+
+s = [777]
+def rnd():
+    s[0] = (s[0] * 1103515245 + 12345) & 0x7FFFFFFF
+    return s[0]
+
+def bits(x):
+    return struct.unpack("<I", struct.pack("<f", x))[0]
+
+bad = 0
+a = demo_multi.Frames()
+b = demo_multi.Frames()
+src = array("H", [0] * 16)
+for n in range(3000):
+    for k in range(12):
+        v = rnd() % 20 if k % 3 == 0 else 800 + rnd() % 1500  # channels 0 (none) .. 19 (beyond the 18)
+        a.lims[k] = b.lims[k] = v
+    for k in range(16):
+        src[k] = (0, 1000, 1500, 2000, 60000, rnd() % 2600)[rnd() % 6]
+    demo_multi.Frames.take(a, src)
+    demo_multi_fast.take(b, src)
+    if a.n != b.n or a.out[0] != b.out[0] or list(a.ch) != list(b.ch):
+        bad += 1
+        if bad < 5:
+            print("frame", n, a.n, b.n, a.out[0], b.out[0], list(a.ch), list(b.ch))
+odd = (0.0, -0.0, 1.0, -1.0, 1.0000001, -0.99999994, 1e-45, -1e-45, 3.4028234e38, -3.4028234e38, float("inf"),
+       float("-inf"), float("nan"), -float("nan"), 2.5, -2.5, 0.1)
+fa = array("f", [0.0] * 16)
+fb = array("f", [0.0] * 16)
+ga = array("f", [0.0] * 16)
+gb = array("f", [0.0] * 16)
+oa = array("i", [0] * 16)
+ob = array("i", [0] * 16)
+for n in range(3000):
+    for k in range(16):
+        x = odd[rnd() % len(odd)]
+        y = x if rnd() & 3 == 0 else odd[rnd() % len(odd)]
+        fa[k] = fb[k] = x
+        ga[k] = gb[k] = y
+    if demo_multi.float_order(fa, ga, oa, 16) != demo_multi_fast.float_order(fb, gb, ob, 16):
+        bad += 1
+    for k in range(16):
+        same = bits(ga[k]) == bits(gb[k]) or (ga[k] != ga[k] and gb[k] != gb[k])  # a NaN's payload may differ
+        if oa[k] != ob[k] or not same:
+            bad += 1
+            if bad < 5:
+                print("float", n, k, fa[k], ga[k], gb[k], oa[k], ob[k])
+print("mismatches", bad)
+'''
+
+
 @pytest.fixture(scope="module")
 def demo_dir(tmp_path_factory):
     d = tmp_path_factory.mktemp("fastgen-demo")
@@ -230,18 +368,37 @@ def demo_dir(tmp_path_factory):
     (d / "demo_fn.py").write_text(DEMO_FN)
     (d / "demo_fn_fast.py").write_text(fastgen.generate_source(DEMO_FN, "demo_fn.py"))
     (d / "driver.py").write_text(DRIVER)
+    (d / "demo_multi.py").write_text(DEMO_MULTI)
+    (d / "demo_multi_fast.py").write_text(fastgen.generate_source(DEMO_MULTI, "demo_multi.py"))
+    (d / "driver_multi.py").write_text(DRIVER_MULTI)
     return d
+
+
+def _run(demo_dir, vm, driver):
+    exe = MICROPYTHON if vm == "64-bit" else (str(VM32) if VM32.exists() else None)
+    if exe is None:
+        pytest.skip("no %s MicroPython VM" % vm)
+    res = subprocess.run([exe, "-X", "heapsize=4m", str(demo_dir / driver)], capture_output=True, text=True,
+                         timeout=300, env={"MICROPYPATH": "%s:%s:.frozen" % (demo_dir, SRC)})
+    assert res.returncode == 0, res.stderr[-2000:]
+    assert res.stdout.strip().endswith("mismatches 0"), res.stdout[-2000:]
 
 
 @pytest.mark.parametrize("vm", ["64-bit", "32-bit"])
 def test_the_generated_code_gives_the_python_kernels_bits_on_64_and_32_bits(demo_dir, vm):
-    exe = MICROPYTHON if vm == "64-bit" else (str(VM32) if VM32.exists() else None)
-    if exe is None:
-        pytest.skip("no %s MicroPython VM" % vm)
-    res = subprocess.run([exe, "-X", "heapsize=4m", str(demo_dir / "driver.py")], capture_output=True, text=True,
-                         timeout=300, env={"MICROPYPATH": "%s:%s:.frozen" % (demo_dir, SRC)})
-    assert res.returncode == 0, res.stderr[-2000:]
-    assert res.stdout.strip().endswith("mismatches 0"), res.stdout[-2000:]
+    _run(demo_dir, vm, "driver.py")
+
+
+@pytest.mark.parametrize("vm", ["64-bit", "32-bit"])
+def test_two_kernels_of_a_module_16_bit_arrays_chains_and_float_pairs_give_the_pythons_bits(demo_dir, vm):
+    _run(demo_dir, vm, "driver_multi.py")
+
+
+def test_a_module_of_two_kernels_is_one_module_of_two_viper_functions(demo_dir):
+    text = (demo_dir / "demo_multi_fast.py").read_text()
+    assert text.count("\n@micropython.viper\ndef ") == 2
+    assert "def take(self, src)" in text and "def float_order(" in text
+    assert "ptr16(self.ch)" in text and "int(len(self.ch))" in text
 
 
 def test_a_constant_of_2_30_is_built_at_run_time_not_written_as_a_literal(demo_dir):
@@ -266,6 +423,12 @@ def test_what_the_generator_cannot_map_is_refused_with_the_reason():
     _refused("    lo = undefined_name\n", "unknown name")
     _refused("    lo = len(co)\n", "not in the dialect")
     _refused("    lo = _dec(fin[0], 3.0, 5)\n", "power of two")
+    _refused("    if 0 < mul(co[1], lo, 3) < 5:\n        lo = 1\n", "plain value")
+    _refused("    m = fin[0]\n    lo = len(fin)\n", "only of an array from the call")
+    with pytest.raises(fastgen.FastGenError, match="one kernel a module"):
+        fastgen.generate_source(DEMO + DEMO.split("class Demo")[0].split("# fastpass: ")[0]
+                                + "# fastpass: Demo.again co:i st:i fin:f fout:f\ndef again(co, st, io, n):\n"
+                                + "    return 0\n")
 
 
 def test_every_stage_is_generated_current_and_compiles_for_64_and_32_bit_machine_code(tmp_path):
