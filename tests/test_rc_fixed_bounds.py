@@ -1,8 +1,8 @@
 """The fixed-point stick shaping (core/stages/rc.py `rc_pass`) stays inside 32-bit words, whatever it holds.
 
-On the RP2040/RP2350 the viper twin (accel/rc.py) computes in 32-bit machine words that wrap
-silently; the unix VM's are 64-bit, so an overflow would not show in the twin test. The Python twin
-does the viper twin's split products step for step; here it runs on the extremes of every
+On the RP2040/RP2350 the viper twin (accel/rc.py, generated from `rc_pass`) computes in 32-bit machine
+words that wrap silently; the twin test also runs on a 32-bit VM, but only on the values it draws. The
+viper does the Python's split products step for step; here the Python runs on the extremes of every
 coefficient and state (full-scale gains, rates at the clamp, sticks at opposite ends) with every
 integer it computes checked: any intermediate at 2**31 or beyond raises.
 """
@@ -58,3 +58,14 @@ def test_the_split_products_equal_the_plain_ones():
                 if d and want == y:
                     want = y + (1 if d > 0 else -1)
                 assert rc._step(kk, x, y) == want
+
+
+def test_rc_frame_stays_in_32_bits_for_every_us_and_deadband():
+    # rc_frame's one product (_stick_q: a * 2**21, a below the span 500 - deadband) on every µs an "H" channel
+    # holds and every deadband the parameters allow (yaw_deadband up to 100)
+    for db in range(0, 101):
+        prev = -_ONE20
+        for us in range(0, 65536, 7):
+            q = rc._stick_q(I32(us), I32(db))
+            assert prev <= q <= _ONE20  # and never turning back
+            prev = q

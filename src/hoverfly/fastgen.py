@@ -29,6 +29,8 @@ STAGES = {
     "att": "hoverfly.core.fastpass.fixedatt",
     "sched": "hoverfly.core.scheduler",
     "output": "hoverfly.core.stages.output",
+    "rc": "hoverfly.core.stages.rc",
+    "faults": "hoverfly.core.safety.failsafe",
 }
 DIRECTIVE = "# fastpass:"
 HASH_LINE = "# fastgen source sha256: "

@@ -1,6 +1,7 @@
-"""FaultWatch.check_imu's twins (core/safety/failsafe.py `check_imu_python`, accel/faults.py `check_imu` on
-MicroPython): the same faults from the same samples, frozen and saturated runs, recoveries and
-limits included. Portable: on CPython the Python twin is the method and the test checks that.
+"""FaultWatch.check_imu's twins (core/safety/failsafe.py `check_imu_python` on `imu_faults`, and on MicroPython
+accel/faults.py `check_imu`, generated from it): the same faults from the same samples, frozen and saturated
+runs, recoveries, limits, signed zeros and NaNs included. Portable: on CPython the Python twin is the method
+and the test checks that.
 """
 
 from array import array
@@ -67,6 +68,26 @@ def test_the_twins_give_the_same_faults():
             chosen.reset_imu()
             python.reset_imu()
     assert seen == {FAULT_NONE, FAULT_IMU_FROZEN, FAULT_IMU_SATURATED, FAULT_IMU_NONFINITE}
+
+
+def test_frozen_compares_values_as_python_does_signed_zeros_alike_and_a_nan_never_equal():
+    # the generated twin reads the floats as their bits: -0.0 and 0.0 must still be the same value, and a NaN
+    # (a fault of its own) must not count as a repeat, so the frozen count after it starts again
+    chosen = FaultWatch()
+    python = FaultWatch()
+    g = array("f", [0.0, 0.01, 0.02])
+    a = array("f", [0.1, 0.2, -9.8])
+    got = []
+    for k in range(40):
+        g[0] = -0.0 if k % 2 else 0.0  # the same value, other bits
+        a[1] = float("nan") if 12 <= k < 15 else 0.2
+        f1 = chosen.check_imu(g, a)
+        f2 = failsafe.check_imu_python(python, g, a)
+        assert f1 == f2, (k, f1, f2)
+        got.append(f1)
+    assert got[9] == FAULT_NONE and got[10] == FAULT_IMU_FROZEN  # the first sample new, then ten repeats
+    assert got[12:15] == [FAULT_IMU_NONFINITE] * 3
+    assert got[15:25] == [FAULT_NONE] * 10 and got[25] == FAULT_IMU_FROZEN  # counted again after the NaN
 
 
 def test_micropython_picks_the_viper_twin_and_cpython_the_python_one():

@@ -297,8 +297,14 @@ _ACCEL_SAT_M_S2 = 150.0
 # comparison on MicroPython (check_imu's six a call were most of what the 100 Hz task allocated).
 _GYRO_SAT_NEG = -_GYRO_SAT_RAD_S
 _ACCEL_SAT_NEG = -_ACCEL_SAT_M_S2
+_INF = float("inf")
+_NEG_INF = float("-inf")
 # Consecutive slow passes (100 Hz: 100 ms) of identical or saturated samples before a fault.
 _IMU_BAD_CHECKS = const(10)
+# imu_faults' counts (FaultWatch._imu_st) stop here: a small int on every port, far past _IMU_BAD_CHECKS.
+_IMU_COUNT_MAX = const(0x100000)
+IMU_SAME = const(0)  # checks in a row with six values equal to the last check's
+IMU_SAT = const(1)  # checks in a row with a value past its limit
 # Crash: tipped beyond 60°, turning slower than 30 °/s, reading 1 g ± 3 m/s² (resting, not falling).
 _CRASH_COS = 0.5
 _CRASH_RATE_SQ = 0.5236 * 0.5236
@@ -310,13 +316,52 @@ _LOAD_RATE_PCT = 80
 _STORM_US = 500000
 
 
+# fastpass: FaultWatch.check_imu st:i@ last:f@ graw:f@ araw:f@
+def imu_faults(st, last, graw, araw):
+    """check_imu's verdict on one sample (graw rad/s, araw m/s², float32 arrays of three) against the last
+    one (last: six float32): not finite (a NaN or an infinity, at once), frozen (six values equal to the
+    last check's for _IMU_BAD_CHECKS checks) or saturated (a value past its limit as long; an infinity is
+    past it). st[IMU_SAME], st[IMU_SAT]: the counts, stopping at _IMU_COUNT_MAX. The viper twin
+    (accel/faults.py) is generated from it: on MicroPython it reads the floats as their bits, no float
+    object made."""
+    same = 1
+    sat = 0
+    bad = 0
+    for i in range(3):
+        g = graw[i]
+        a = araw[i]
+        g_last = last[i]
+        a_last = last[3 + i]
+        if g != g_last or a != a_last:
+            same = 0
+        last[i] = g
+        last[3 + i] = a
+        if g > _GYRO_SAT_RAD_S or g < _GYRO_SAT_NEG or a > _ACCEL_SAT_M_S2 or a < _ACCEL_SAT_NEG:
+            sat = 1
+        if not (_NEG_INF < g < _INF and _NEG_INF < a < _INF):
+            bad = 1
+    n_same = st[IMU_SAME] + 1 if same else 0
+    if n_same > _IMU_COUNT_MAX:
+        n_same = _IMU_COUNT_MAX
+    st[IMU_SAME] = n_same
+    n_sat = st[IMU_SAT] + 1 if sat else 0
+    if n_sat > _IMU_COUNT_MAX:
+        n_sat = _IMU_COUNT_MAX
+    st[IMU_SAT] = n_sat
+    if bad:
+        return FAULT_IMU_NONFINITE
+    if n_same >= _IMU_BAD_CHECKS:
+        return FAULT_IMU_FROZEN
+    if n_sat >= _IMU_BAD_CHECKS:
+        return FAULT_IMU_SATURATED
+    return FAULT_NONE
+
+
 class FaultWatch:
     def __init__(self):
         self.crash_us = 1000000  # crash_time_ms; 0 = off
-        self.last = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
-        self._imu_st = array("i", [0] * 8)  # the viper twin's: the last six float32 words, its two counts
-        self.same_checks = 0
-        self.sat_checks = 0
+        self._imu_last = array("f", [0.0] * 6)  # the last check's six values
+        self._imu_st = array("i", [0, 0])  # imu_faults' counts: IMU_SAME, IMU_SAT
         self.imu_fault = FAULT_NONE
         self.fault_before = FAULT_NONE  # the flight's IMU verdict at its last check (Supervisor.task)
         self.crash_since_us = None
@@ -333,42 +378,17 @@ class FaultWatch:
         self._period_us = 1000000 // params.get("loop_hz")
 
     def reset_imu(self):
-        self.same_checks = 0
-        self.sat_checks = 0
-        self._imu_st[6] = 0
-        self._imu_st[7] = 0
+        self._imu_st[IMU_SAME] = 0
+        self._imu_st[IMU_SAT] = 0
         self.imu_fault = FAULT_NONE
 
     def check_imu(self, gyro_raw_rad_s, accel_raw_m_s2):
-        """Slow pass with a fresh sample: not finite (a NaN or an infinity: at once), frozen (bit-identical six
-        values) or saturated (an infinity counts there too). On MicroPython the viper twin (accel/faults.py
-        `check_imu`) stands in for this method; `check_imu_python` keeps it."""
-        last = self.last
-        same = True
-        sat = False
-        bad = False
-        for i in range(3):
-            g = gyro_raw_rad_s[i]
-            a = accel_raw_m_s2[i]
-            if g != last[i] or a != last[3 + i]:
-                same = False
-            last[i] = g
-            last[3 + i] = a
-            if g > _GYRO_SAT_RAD_S or g < _GYRO_SAT_NEG or a > _ACCEL_SAT_M_S2 or a < _ACCEL_SAT_NEG:
-                sat = True
-            if g - g != 0.0 or a - a != 0.0:  # NaN, and inf - inf is NaN
-                bad = True
-        self.same_checks = self.same_checks + 1 if same else 0
-        self.sat_checks = self.sat_checks + 1 if sat else 0
-        if bad:
-            self.imu_fault = FAULT_IMU_NONFINITE
-        elif self.same_checks >= _IMU_BAD_CHECKS:
-            self.imu_fault = FAULT_IMU_FROZEN
-        elif self.sat_checks >= _IMU_BAD_CHECKS:
-            self.imu_fault = FAULT_IMU_SATURATED
-        else:
-            self.imu_fault = FAULT_NONE
-        return self.imu_fault
+        """Slow pass with a fresh sample (float32 arrays): imu_faults' verdict, kept in imu_fault. On
+        MicroPython the viper twin generated from imu_faults (accel/faults.py `check_imu`) stands in for this
+        method; `check_imu_python` keeps it."""
+        fault = imu_faults(self._imu_st, self._imu_last, gyro_raw_rad_s, accel_raw_m_s2)
+        self.imu_fault = fault
+        return fault
 
     def _lying_still(self, gyro_rad_s, accel_m_s2):
         """Not turning, and about 1 g: what a craft lying where it fell reads."""

@@ -82,8 +82,9 @@ def _mul_rate(a, c):
     return (t >> 5) + ((((t & 31) << 11) + a * (c & 0x7FF)) >> 16)
 
 
+# fastpass: rc_pass co:i st:i stick:f rate:f
 def rc_pass(co, st, stick, rate):
-    """One pass of the stick shaping in fixed point (the Python twin of accel/rc.py): the four PT2s
+    """One pass of the stick shaping in fixed point (accel/rc.py's viper is generated from it): the four PT2s
     (roll, pitch, yaw, throttle) on st's Q20 inputs, the smoothed sticks into stick[0..2] and their
     rates through the "actual" curve into rate[0..2] (floats). Returns which outputs changed: bit i
     for st[S_Y + i]. A PT2 sitting on its input is not run. Bounds: inputs within +-2**20, so the
@@ -138,15 +139,16 @@ RF_AIRMODE = const(128)
 RF_AP = const(256)
 
 
+# fastpass: rc_frame fco:i last:i channels_us:H st:i src_us:H
 def rc_frame(fco, last, channels_us, st, src_us):
     """new_frame's integer part, in one call: the receiver's 16 channels src_us copied into channels_us
-    (unless they are the same array), which sticks moved since the last frame (their µs into `last`),
-    in fixed point their Q20 into st[S_X..] (roll, pitch, yaw: _stick_q, pitch negated: stick forward is
-    nose down in FRD; the throttle is left to RcInput._throttle), and which mode switches are in range.
-    The viper twin accel/rc.py `rc_frame` stands in for it on MicroPython (test_rc_fixed checks both)."""
-    if src_us is not channels_us:
-        for i in range(CHANNELS):
-            channels_us[i] = src_us[i]
+    (onto themselves when they are the same array), which sticks moved since the last frame (their µs into
+    `last`), in fixed point their Q20 into st[S_X..] (roll, pitch, yaw: _stick_q, pitch negated: stick
+    forward is nose down in FRD; the throttle is left to RcInput._throttle), and which mode switches are in
+    range. Its viper twin, generated from it (accel/rc.py), stands in for it on MicroPython (test_rc_fixed
+    checks both)."""
+    for i in range(CHANNELS):
+        channels_us[i] = src_us[i]
     r = 0
     for i in range(4):
         us = channels_us[fco[FC_CH + i]]
