@@ -25,12 +25,12 @@ Prints one JSON object: {passes, stages: {name: ir_per_pass}}.
 import sys
 
 PASSES = 600
-# The pass (Flight.step's stages) and the slow tasks and their large parts, as of 2026-12. (The pass
+# The pass (Flight.step's stages) and the slow tasks and their large parts. (The pass
 # statistics are a viper function Flight.step calls directly, scheduler.fast_pass_stats: no method to wrap.)
 DEFAULT = ("step", "_sense", "board.read_imu", "board.imu.read", "fixed_imu.update",
-           "fixed_att.step", "rc.update", "command", "fixed.update", "_outputs", "output.update_fixed",
+           "fixed_att.step", "rc.update", "commander.update", "fixed.update", "_outputs", "output.update_fixed",
            "board.write_motors", "scheduler.run", "task.rx", "receiver.update", "_rx_frame", "rc.new_frame",
-           "_pilot_frame", "task.arming", "faults.check_imu", "failsafe.observe")
+           "commander.pilot_frame", "task.arming", "faults.check_imu", "failsafe.observe")
 
 
 def _wrap(obj, name):

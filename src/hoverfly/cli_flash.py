@@ -29,12 +29,10 @@ ARCH = {"rp2040": "armv6m", "rp2350": "armv7m", "rp2350-riscv": "rv32imc", "unix
 CHIPS = ("rp2040", "rp2350", "rp2350-riscv")  # the boards; unix-x64 is the PC's MicroPython
 # Modules compiled to machine code. Native code keeps its frames on the C stack, where MicroPython gives
 # a bytecode function whose state (locals and value stack) passes 11 words a frame from the heap on every
-# call. Flight's methods had the largest frames, and native they saved a quarter of the pass; since the
-# pass keeps every frame within 11 words (2026-12), flight.py native saves only 1.5-1.7 k instructions of
-# 115 k for 19 KB on an RP2040 (bench/bundle_loop.py: 114.7 k bytecode, 113.0 k with it; --each)
-# (docs/pico.md, "What a pass costs": whether it stays is for a timing on a board). Native code is about
-# three times the size of its bytecode and, loaded from the filesystem, sits in RAM, so a module is here
-# only where its saving pays for its bytes.
+# call; the pass keeps its frames within that (tests/test_perf_rules.py), so what native code still saves
+# is small (docs/pico.md, "Native modules and RAM", has today's figure and the command). Native code is
+# about three times the size of its bytecode and, loaded from the filesystem, sits in RAM, so a module is
+# here only where its saving pays for its bytes; whether flight.py stays is for a timing on a board.
 NATIVE_MODULES = ("core/flight.py",)
 MAIN_PY = "from hoverfly.boards.rp2.main import main\nmain()\n"
 # mpy-cross writes the target architecture into a .mpy's third header byte (bits 2 and up) only when the
