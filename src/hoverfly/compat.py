@@ -133,7 +133,7 @@ def accel_module(name):
         return None
     try:
         package = __import__("hoverfly.accel." + name)
-    except (SyntaxError, ImportError, NameError, ValueError):
+    except (SyntaxError, ImportError, NameError, ValueError, TypeError):  # TypeError: ViperTypeError
         return None
     return getattr(package.accel, name)
 
