@@ -12,9 +12,9 @@ from pathlib import Path
 import pytest
 
 from hoverfly.cli import main
-from hoverfly.cli_params import restore_changes
 from hoverfly.core.config.params import PARAMS, row
 from hoverfly.gcs.link import CliSession, MaintClient, MspClient, Refused, open_link
+from hoverfly.paramtext import changes_to, parse_set_text
 from hoverfly.protocols import maintenance as mp
 from hoverfly.protocols import msp
 
@@ -195,11 +195,30 @@ def test_restore_preview_shows_the_diff_and_leaves_the_controller_unchanged(sim,
     assert code == 0 and "already matches" in out
 
 
+def test_a_set_file_is_read_one_way_for_the_cli_and_the_ground_station():
+    text = "# diff all\nbatch start\nset p_roll = 60\nfeature ESC_SENSOR\nset p_pitch 3\nset nosuch = 1\nsave\n"
+    values, is_diff, skipped, errors = parse_set_text(text)
+    assert values == {"p_roll": 60} and is_diff
+    assert skipped == [(4, "feature ESC_SENSOR")]
+    assert [n for n, _ in errors] == [5, 6] and "use set name = value" in errors[0][1]
+    assert "unknown parameter" in errors[1][1]
+    # `defaults nosave` makes a dump a diff: what came before it is dropped
+    values, is_diff, _, _ = parse_set_text("set p_roll = 70\ndefaults nosave\nset i_roll = 80\n")
+    assert values == {"i_roll": 80} and is_diff
+
+
+def test_a_bad_line_in_a_restore_file_stops_before_anything_is_sent(tmp_path, capsys):
+    f = tmp_path / "bad.txt"
+    f.write_text("set p_roll = 60\nset p_roll = 9999\n")
+    code, out, err = run(capsys, "params", "restore", str(f), "--preview", "--port", "tcp://127.0.0.1:9")
+    assert_one_line_error(code, err, "bad.txt line 2:")
+
+
 def test_a_diff_file_restores_unlisted_parameters_to_their_defaults():
     current = {"p_roll": 50, "i_roll": 99, "d_roll": row("d_roll")[1]}
-    changes = restore_changes(current, {"p_roll": 60}, is_diff=True)
+    changes = changes_to(current, {"p_roll": 60}, is_diff=True)
     assert changes == [("p_roll", 50, 60), ("i_roll", 99, row("i_roll")[1])]
-    assert restore_changes(current, {"p_roll": 60}, is_diff=False) == [("p_roll", 50, 60)]
+    assert changes_to(current, {"p_roll": 60}, is_diff=False) == [("p_roll", 50, 60)]
 
 
 def test_restore_refuses_a_bad_file_before_connecting(capsys, tmp_path):

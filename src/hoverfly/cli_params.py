@@ -11,9 +11,10 @@ sent, and a refusal from the controller (`###ERROR: ...###`) becomes a one-line 
 import json
 import sys
 
-from hoverfly.core.config.params import PARAMS, REBOOT, check, check_value, is_choice, row
+from hoverfly.core.config.params import PARAMS, REBOOT, check, is_choice, row
 from hoverfly.core.links.cliserver import format_value
 from hoverfly.errors import UserError
+from hoverfly.paramtext import changes_to, parse_dump, parse_set_text
 
 
 def schema():
@@ -165,7 +166,8 @@ def run_set(args):
 
 def read_set_file(path):
     """{name: value} from a dump/diff file's `set` lines, and True if unlisted names mean defaults
-    (a `diff` file, or one holding `defaults nosave`). Other lines are skipped with a note."""
+    (a `diff` file, or one holding `defaults nosave`). Other lines are skipped with a note; a bad
+    `set` line stops it with a one-line error before anything is sent."""
     try:
         with open(path, encoding="utf-8") as fh:
             text = fh.read()
@@ -173,61 +175,15 @@ def read_set_file(path):
         raise UserError("cannot read %s: %s" % (path, exc.strerror or exc)) from None
     except UnicodeError:
         raise UserError("%s is not a text file of set lines" % path) from None
-    values = {}
-    is_diff = False
-    for n, raw in enumerate(text.splitlines(), 1):
-        line = raw.strip()
-        low = line.lower()
-        if not line:
-            continue
-        if line.startswith("#"):
-            if n == 1 and low.startswith("# diff"):
-                is_diff = True
-            continue
-        if low in ("batch start", "batch end", "save", "exit"):
-            continue
-        if low == "defaults nosave":
-            is_diff = True
-            values = {}
-            continue
-        if not low.startswith("set "):
-            print("hoverfly: note: %s line %d skipped (not a set line): %s" % (path, n, line),
-                  file=sys.stderr)
-            continue
-        body = line[4:]
-        if "=" not in body:
-            raise UserError("%s line %d: use set name = value" % (path, n))
-        name, v, _ = parse_assignment(body, "%s line %d: " % (path, n))
-        values[name] = v
+    values, is_diff, skipped, errors = parse_set_text(text)
+    if errors:
+        n, err = errors[0]
+        if err.startswith("unknown parameter") and "did you mean" not in err:
+            err += " (hoverfly params list shows them)"
+        raise UserError("%s line %d: %s" % (path, n, err))
+    for n, line in skipped:
+        print("hoverfly: note: %s line %d skipped (not a set line): %s" % (path, n, line), file=sys.stderr)
     return values, is_diff
-
-
-def _parse_dump(lines):
-    current = {}
-    for line in lines:
-        if line.startswith("set ") and "=" in line:
-            name, text = line[4:].split("=", 1)
-            name = name.strip()
-            v, err = check_value(name, text.strip())
-            if err is None:
-                current[name] = v
-    return current
-
-
-def restore_changes(current, wanted, is_diff):
-    """[(name, controller value, file value)] in table order, for values that differ."""
-    out = []
-    for r in PARAMS:
-        name = r[0]
-        if name in wanted:
-            target = wanted[name]
-        elif is_diff:
-            target = r[1]
-        else:
-            continue
-        if name in current and format_value(current[name]) != format_value(target):
-            out.append((name, current[name], target))
-    return out
 
 
 def _confirm(count):
@@ -244,10 +200,10 @@ def run_restore(args):
     port, cli = _session(args)
     try:
         with cli:
-            current = _parse_dump(cli.command("dump", check=True))
+            current = parse_dump(cli.command("dump", check=True))
             if not current:
                 raise UserError("the controller's dump had no set lines")
-            changes = restore_changes(current, wanted, is_diff)
+            changes = changes_to(current, wanted, is_diff)
             if not changes:
                 print("the controller already matches %s" % args.file)
                 return 0

@@ -17,7 +17,7 @@ import math
 import threading
 import time
 
-from hoverfly.core.config.params import PARAMS, REBOOT, check, is_choice
+from hoverfly.core.config.params import PARAMS, REBOOT, check, is_choice, row
 from hoverfly.core.links.cliserver import format_value
 from hoverfly.core.safety.arming import REASONS
 from hoverfly.core.safety.bit import CHECK_NAMES
@@ -32,6 +32,7 @@ from hoverfly.gcs.link import (
     command_id,
     open_link,
 )
+from hoverfly.paramtext import changes_to, parse_dump, parse_set_text
 from hoverfly.protocols import maintenance as mp
 from hoverfly.protocols import msp
 
@@ -81,49 +82,6 @@ def param_groups():
     except OSError:
         pass
     return groups
-
-
-def _parse_set_lines(text):
-    """({name: value}, is_diff, [{line, error}]) from the text of a diff or dump file."""
-    values = {}
-    errors = []
-    is_diff = False
-    for n, raw in enumerate(text.splitlines(), 1):
-        line = raw.strip()
-        low = line.lower()
-        if not line:
-            continue
-        if line.startswith("#"):
-            if n == 1 and low.startswith("# diff"):
-                is_diff = True
-            continue
-        if low in ("batch start", "batch end", "save", "exit"):
-            continue
-        if low == "defaults nosave":
-            is_diff = True
-            values = {}
-            continue
-        if not low.startswith("set ") or "=" not in line:
-            errors.append({"line": n, "error": "not a 'set name = value' line: %s" % line[:80]})
-            continue
-        name_text, value_text = line[4:].split("=", 1)
-        name, v, err = check(name_text.strip().lower(), value_text.strip())
-        if err is not None:
-            errors.append({"line": n, "error": err})
-            continue
-        values[name] = v
-    return values, is_diff, errors
-
-
-def _parse_dump(lines):
-    current = {}
-    for line in lines:
-        if line.startswith("set ") and "=" in line:
-            name, text = line[4:].split("=", 1)
-            name, v, err = check(name.strip(), text.strip())
-            if err is None:
-                current[name] = v
-    return current
 
 
 def _finite(x):
@@ -335,7 +293,7 @@ class Session:
     def params(self):
         groups = param_groups()
         if self.protocol == "msp":
-            current = self._cli(lambda cli: _parse_dump(cli.command("dump", check=True)))
+            current = self._cli(lambda cli: parse_dump(cli.command("dump", check=True)))
             self.params_cache = current
         elif self.protocol == "maint":
             current = {}
@@ -412,19 +370,12 @@ class Session:
     def diff_preview(self, text):
         if not isinstance(text, str):
             raise GcsError("send {text: the file's text}")
-        wanted, is_diff, errors = _parse_set_lines(text)
-        current = self._cli(lambda cli: _parse_dump(cli.command("dump", check=True)))
-        changes = []
-        for r in PARAMS:
-            name = r[0]
-            if name in wanted:
-                target = wanted[name]
-            elif is_diff:
-                target = r[1]
-            else:
-                continue
-            if name in current and format_value(current[name]) != format_value(target):
-                changes.append({"name": name, "old": current[name], "new": target, "reboot": r[5] == REBOOT})
+        wanted, is_diff, skipped, bad = parse_set_text(text)
+        errors = sorted([{"line": n, "error": "not a 'set name = value' line: %s" % line[:80]} for n, line in skipped]
+                        + [{"line": n, "error": err} for n, err in bad], key=lambda e: e["line"])
+        current = self._cli(lambda cli: parse_dump(cli.command("dump", check=True)))
+        changes = [{"name": name, "old": old, "new": new, "reboot": row(name)[5] == REBOOT}
+                   for name, old, new in changes_to(current, wanted, is_diff)]
         return {"changes": changes, "errors": errors, "resets_unlisted": is_diff}
 
     def diff_apply(self, text):
