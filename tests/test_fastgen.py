@@ -361,6 +361,65 @@ print("mismatches", bad)
 '''
 
 
+# The shared arithmetic imported, not written in the module (core/fastpass/fixedmath.py, under names of the
+# kernel's choosing), and a helper of another module (fixedatt's CORDIC _atan2, which reads its own module's
+# constants N_CORDIC, CO_ATAN and _HALF_PI) inlined with them.
+DEMO_IMPORTED = '''
+from hoverfly.core.fastpass.fixedatt import _atan2 as atan2_q28
+from hoverfly.core.fastpass.fixedmath import dec as to_q16
+from hoverfly.core.fastpass.fixedmath import mul as scaled
+from hoverfly.core.fastpass.fixedmath import mulw as mul_q28
+
+
+# fastpass: headings co:i gain:i fin:f out:i
+def headings(co, gain, fin, out, n):
+    for k in range(n):
+        x = to_q16(fin[k], 65536.0, 0x800000)
+        y = to_q16(fin[n + k], 65536.0, 0x800000)
+        z, r = atan2_q28(co, y, x)
+        out[k] = z
+        out[n + k] = r
+        out[2 * n + k] = scaled(gain[k], x, 12) + mul_q28(x << 5, y << 5) + scaled(gain[k], y, gain[n + k])
+    return n
+'''
+
+DRIVER_IMPORTED = '''
+from array import array
+import demo_imported
+import demo_imported_fast
+from hoverfly.core.fastpass import fixedatt
+
+s = [4242]
+def rnd():
+    s[0] = (s[0] * 1103515245 + 12345) & 0x7FFFFFFF
+    return s[0]
+
+co = array("i", [0] * fixedatt.CO_SIZE)
+fixedatt._fill_tables(co)
+gain = array("i", [0] * 16)
+fin = array("f", [0.0] * 16)
+oa = array("i", [0] * 24)
+ob = array("i", [0] * 24)
+odd = (0.0, -0.0, 127.99, -128.0, 1e30, float("inf"), float("-inf"), float("nan"), 2.0 ** -16, -3.5)
+bad = 0
+for n in range(3000):
+    for k in range(8):
+        gain[k] = (rnd() & 0x7FFF) - 0x4000
+        gain[8 + k] = rnd() % 31
+    for k in range(16):
+        r = rnd()
+        fin[k] = odd[r % len(odd)] if r & 3 == 0 else ((r & 0xFFFFFF) - 0x800000) / float(1 << (r % 20))
+    if demo_imported.headings(co, gain, fin, oa, 8) != demo_imported_fast.headings(co, gain, fin, ob, 8):
+        bad += 1
+    for k in range(24):
+        if oa[k] != ob[k]:
+            bad += 1
+            if bad < 5:
+                print("out", n, k, oa[k], ob[k])
+print("mismatches", bad)
+'''
+
+
 @pytest.fixture(scope="module")
 def demo_dir(tmp_path_factory):
     d = tmp_path_factory.mktemp("fastgen-demo")
@@ -372,6 +431,9 @@ def demo_dir(tmp_path_factory):
     (d / "demo_multi.py").write_text(DEMO_MULTI)
     (d / "demo_multi_fast.py").write_text(fastgen.generate_source(DEMO_MULTI, "demo_multi.py"))
     (d / "driver_multi.py").write_text(DRIVER_MULTI)
+    (d / "demo_imported.py").write_text(DEMO_IMPORTED)
+    (d / "demo_imported_fast.py").write_text(fastgen.generate_source(DEMO_IMPORTED, "demo_imported.py"))
+    (d / "driver_imported.py").write_text(DRIVER_IMPORTED)
     return d
 
 
@@ -397,6 +459,41 @@ def test_the_generated_code_gives_the_python_kernels_bits_on_64_and_32_bits(demo
 @pytest.mark.parametrize("vm", ["64-bit", "32-bit"])
 def test_two_kernels_of_a_module_16_bit_arrays_chains_and_float_pairs_give_the_pythons_bits(demo_dir, vm):
     _run(demo_dir, vm, "driver_multi.py")
+
+
+@pytest.mark.parametrize("vm", ["64-bit", "32-bit"])
+def test_imported_intrinsics_and_another_modules_helper_give_the_pythons_bits(demo_dir, vm):
+    _run(demo_dir, vm, "driver_imported.py")
+
+
+def _bodies(text):
+    return text[text.index("\n@micropython.viper\n"):]
+
+
+def test_the_intrinsics_imported_from_fixedmath_are_written_out_as_a_modules_own_are():
+    own = DEMO.split("\n\n\ndef _mul(")[0] + "\n\n\ndef _turn(" + DEMO.split("\n\n\ndef _turn(")[1]
+    imported = own.replace("from hoverfly.compat import const\n", "from hoverfly.compat import const\n"
+                           "from hoverfly.core.fastpass.fixedmath import dec as _dec\n"
+                           "from hoverfly.core.fastpass.fixedmath import mul as _mul\n"
+                           "from hoverfly.core.fastpass.fixedmath import mulw as _mulw\n")
+    assert "def _mul(" not in imported and "import mul as _mul" in imported
+    assert _bodies(fastgen.generate_source(imported)) == _bodies(fastgen.generate_source(DEMO))
+    # written out in place, never called: the generated module imports nothing of fixedmath
+    assert "fixedmath" not in fastgen.generate_source(imported)
+
+
+def test_a_stage_is_generated_again_when_a_module_it_imports_helpers_from_changes(monkeypatch):
+    before = fastgen.source_hash("hoverfly.core.fastpass.fixedimu")
+    assert "hoverfly.core.fastpass.fixedmath" in fastgen._imported_modules(
+        (SRC / "hoverfly/core/fastpass/fixedimu.py").read_text())
+    real = pathlib.Path.read_bytes
+
+    def edited(path):
+        data = real(path)
+        return data + b"\n# edited\n" if path.name == "fixedmath.py" else data
+
+    monkeypatch.setattr(pathlib.Path, "read_bytes", edited)
+    assert fastgen.source_hash("hoverfly.core.fastpass.fixedimu") != before
 
 
 def test_a_module_of_two_kernels_is_one_module_of_two_viper_functions(demo_dir):

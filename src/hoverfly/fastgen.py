@@ -62,6 +62,11 @@ TAB_SIZE = {tab_size}
 '''
 
 
+# the shared arithmetic every kernel imports (core/fastpass/fixedmath.py): each name -> the intrinsic written out
+# in place of its call (Generator.mul, .dec, .mulw)
+INTRINSICS_MODULE = "hoverfly.core.fastpass.fixedmath"
+_INTRINSICS = {"mul": "_mul", "dec": "_dec", "mulw": "_mulw"}
+
 # the names the written code uses itself (the decode's, the encode's, the table's)
 _RESERVED = {"_t", "_one", "_sx", "_lg", "_b", "_e", "_a", "_sg", "_pw", "_mm", "_sh", "_h", "_r", "_bits", "_ah",
              "_al", "_bh", "_bl"}
@@ -135,10 +140,32 @@ class Generator:
         self.consts = {k: v for k, v in namespace.items()
                        if isinstance(v, (int, float)) and not isinstance(v, bool)}
         self.functions = {n.name: n for n in self.tree.body if isinstance(n, ast.FunctionDef)}
+        # the intrinsics, by the name the module calls them: fixedmath's, imported under any name, or (as before
+        # fixedmath) a module's own def of _mul, _dec or _mulw
+        self.intrinsics = {n: n for n in _INTRINSICS.values() if n in self.functions}
+        self.helper_consts = {}  # an imported helper's def -> its own module's constants, folded where inlined
+        self._imports()
         self.directives = self._directives()
         if len([d for d in self.directives if d[4] != set(a for a, _ in d[3])]) > 1:
             raise FastGenError("%s: one kernel a module may use an address table" % self.path)
         self.select(0)
+
+    def _imports(self):
+        """`from hoverfly.x import f [as g]` at module level: fixedmath's intrinsics under the name g, and any
+        other function of a hoverfly module as a helper to inline (with its own module's constants)."""
+        for n in self.tree.body:
+            if not (isinstance(n, ast.ImportFrom) and n.level == 0 and (n.module or "").startswith("hoverfly.")):
+                continue
+            for alias in n.names:
+                local = alias.asname or alias.name
+                fn = _module_functions(n.module).get(alias.name)
+                if fn is None:
+                    continue
+                self.functions[local] = fn
+                if n.module == INTRINSICS_MODULE and alias.name in _INTRINSICS:
+                    self.intrinsics[local] = _INTRINSICS[alias.name]
+                else:
+                    self.helper_consts[fn] = _module_consts(n.module)
 
     def select(self, k):
         """Write the k-th kernel of the module next (its directive, a fresh output)."""
@@ -289,11 +316,12 @@ class Generator:
             return "((%s[%s] << _sx) >> _sx)" % (name, self.expr(node.slice, scope))
         if isinstance(node, ast.Call) and isinstance(node.func, ast.Name):
             fn = self.resolve_function(node.func.id, scope)
-            if fn == "_mul":
+            intrinsic = self.intrinsics.get(fn)
+            if intrinsic == "_mul":
                 return self.mul(node, scope)
-            if fn == "_dec":
+            if intrinsic == "_dec":
                 return self.dec(node, scope)
-            if fn == "_mulw":
+            if intrinsic == "_mulw":
                 return self.mulw(node, scope)
             if fn == "len" and len(node.args) == 1:
                 return self.length(node.args[0], scope)
@@ -575,6 +603,12 @@ class Generator:
             _fail(call, "%s takes %d positional arguments" % (fn.name, len(fn.args.args)))
         inner = _Scope()
         inner.taken = scope.taken
+        consts = self.helper_consts.get(fn)
+        if consts:  # an imported helper: the constants of its own module, where its body reads them
+            params = _assigned_names(fn)
+            for n in ast.walk(fn):
+                if isinstance(n, ast.Name) and n.id in consts and n.id not in params:
+                    inner.names[n.id] = ("const", consts[n.id])
         for a, p in zip(call.args, fn.args.args, strict=True):
             if isinstance(a, ast.Name) and scope.names.get(a.id, ("",))[0] == "array":
                 inner.names[p.arg] = scope.names[a.id]
@@ -1098,9 +1132,45 @@ def _log2(v, node):
     return q
 
 
+def _module_source(module_name):
+    return pathlib.Path(importlib.import_module(module_name).__file__).read_text()
+
+
+def _module_functions(module_name):
+    """A hoverfly module's top-level defs by name (parsed from its source)."""
+    try:
+        tree = ast.parse(_module_source(module_name))
+    except (ImportError, OSError, SyntaxError, TypeError):
+        return {}
+    return {n.name: n for n in tree.body if isinstance(n, ast.FunctionDef)}
+
+
+def _module_consts(module_name):
+    return {k: v for k, v in vars(importlib.import_module(module_name)).items()
+            if isinstance(v, (int, float)) and not isinstance(v, bool)}
+
+
+def _imported_modules(source):
+    """The hoverfly modules a stage imports names from at module level: their helpers and constants go into
+    the generated code, so their text is part of what it is generated from."""
+    out = []
+    for n in ast.parse(source).body:
+        if isinstance(n, ast.ImportFrom) and n.level == 0 and (n.module or "").startswith("hoverfly.") \
+                and n.module not in out:
+            out.append(n.module)
+    return sorted(out)
+
+
 def source_hash(module_name):
     mod = importlib.import_module(module_name)
-    return hashlib.sha256(pathlib.Path(mod.__file__).read_bytes() + pathlib.Path(__file__).read_bytes()).hexdigest()
+    text = pathlib.Path(mod.__file__).read_bytes()
+    h = hashlib.sha256(text + pathlib.Path(__file__).read_bytes())
+    for name in _imported_modules(text.decode()):
+        try:
+            h.update(pathlib.Path(importlib.import_module(name).__file__).read_bytes())
+        except (ImportError, OSError):
+            continue  # MicroPython-only modules (hoverfly.accel.*): nothing of theirs is folded in
+    return h.hexdigest()
 
 
 def generate(name):

@@ -37,6 +37,9 @@ import math
 from array import array
 
 from hoverfly.compat import IS_MICROPYTHON, const
+from hoverfly.core.fastpass.fixedmath import dec as _dec
+from hoverfly.core.fastpass.fixedmath import mul as _mul
+from hoverfly.core.fastpass.fixedmath import mulw as _mulw
 
 # co: the gains (a 15-bit mantissa m and a shift s, value = m / 2**s), the averaging, then tables
 CO_KP_M = const(0)
@@ -112,30 +115,6 @@ def coef(value, cap=40):
         s -= 1
         m = int(value * (1 << s) + 0.5)
     return m, s
-
-
-def _dec(x, scale, lim):
-    """A float in fixed point: truncated toward 0, clamped to +-lim, NaN as 0 (Q28: 2**28, ...)."""
-    if x != x:
-        return 0
-    v = x * scale
-    if v >= lim:
-        return lim
-    if v <= -lim:
-        return -lim
-    return int(v)
-
-
-def _mul(c, x, s):
-    """c * x / 2**s, rounded half up (|c| < 2**15: the viper twin's split on x's 16-bit halves)."""
-    if s:
-        return (c * x + (1 << (s - 1))) >> s
-    return c * x
-
-
-def _mulw(a, b):
-    """a * b / 2**28, rounded half up: two Q28 words (the viper twin's split on 15-bit halves)."""
-    return (a * b + 0x8000000) >> 28
 
 
 def _isqrt(n):

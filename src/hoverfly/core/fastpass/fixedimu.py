@@ -25,6 +25,8 @@ over k of its input: 1e-5 rad/s for the gyro's default 250 Hz, 2e-4 m/s^2 for th
 from array import array
 
 from hoverfly.compat import IS_MICROPYTHON, const
+from hoverfly.core.fastpass.fixedmath import dec as _dec
+from hoverfly.core.fastpass.fixedmath import mul as _mul
 
 # co: the gyro PT1's gain per axis, then the accelerometer PT2's stage gain per axis (Q15)
 CO_GYRO_K = const(0)
@@ -50,25 +52,6 @@ if IS_MICROPYTHON:
     except (ImportError, SyntaxError, NameError, ValueError, TypeError):  # TypeError: ViperTypeError
         pass
 HAS_ACCEL = _viper is not None
-
-
-def _dec(x, scale, lim):
-    """A float times scale (Q16: 2**16) in fixed point: truncated toward 0, clamped to +-lim, NaN as 0."""
-    if x != x:
-        return 0
-    v = x * scale
-    if v >= lim:
-        return lim
-    if v <= -lim:
-        return -lim
-    return int(v)
-
-
-def _mul(c, x, s):
-    """c * x / 2**s rounded half up (the generated code splits x in 16-bit halves: no product passes 2**31)."""
-    if s:
-        return (c * x + (1 << (s - 1))) >> s
-    return c * x
 
 
 def _step(k, x, y):

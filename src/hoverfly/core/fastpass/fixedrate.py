@@ -31,6 +31,8 @@ Inputs that are not numbers (NaN) read as 0, infinities as the clamp.
 from array import array
 
 from hoverfly.compat import IS_MICROPYTHON, const
+from hoverfly.core.fastpass.fixedmath import dec as _dec
+from hoverfly.core.fastpass.fixedmath import mul as _mul
 from hoverfly.core.stages.control import MODE_ACRO, MODE_ANGLE
 from hoverfly.core.stages.pid import RELAX_THRESHOLD_RAD_S
 
@@ -144,25 +146,6 @@ def coef(value, cap=40):
         s -= 1
         m = int(a * (1 << s) + 0.5)
     return (m if value > 0 else -m), s
-
-
-def _mul(c, x, s):
-    """c * x / 2**s rounded (half up): the viper twin's split product, whole (tests swap in a checked one)."""
-    if s:
-        return (c * x + (1 << (s - 1))) >> s
-    return c * x
-
-
-def _dec(x, scale, lim):
-    """A float to fixed point: truncated toward 0, clamped to +-lim, NaN as 0 (accel/rate.py's decode)."""
-    if x != x:
-        return 0
-    v = x * scale
-    if v >= lim:
-        return lim
-    if v <= -lim:
-        return -lim
-    return int(v)
 
 
 def _level_rate(co, st, last, angle_sp, angle, inv_dt):
