@@ -95,6 +95,10 @@ def summary(r):
         lines.append("  battery %.2f V at the end, %.0f mAh drawn" % (b["voltage_v"], b["mah_drawn"]))
     for st in r["steps"]:
         lines.append("  " + step_line(st))
+    for d in r.get("disturbances", []):
+        lines.append("  %s at %.2f s: pushed %.1f deg off, back within 2 deg %s"
+                     % (d["kind"], d["t_s"], d["peak_deg"],
+                        "never" if d["back_within_2deg_ms"] is None else "after %g ms" % d["back_within_2deg_ms"]))
     for f in r.get("flips", []):
         lines.append("  flip %s: %d ms, lost %s of height, ended %.1f deg from level"
                      % (f["axis"], f["duration_ms"], _m(f["alt_loss_m"]), f["end_tilt_deg"]))

@@ -34,6 +34,7 @@ _NUMBERS = {
     "drag_coef": (0.0, 100.0, False),
     "angular_damping": (0.0, 10.0, True),
     "rotor_drag_coef": (0.0, 1.0, True),
+    "rotor_height_m": (0.0, 1.0, True),  # rotor plane above the centre of mass: the H-force's lever
     "idle_current_a": (0.0, 200.0, True),
     "figure_of_merit": (0.0, 1.0, False),
     "drive_efficiency": (0.0, 1.0, False),

@@ -68,6 +68,9 @@ class Vehicle:
         self.drag_n_per_m2_s2 = a["drag_coef"]
         self.ang_damping = a.get("angular_damping", 0.0)
         self.rotor_drag = a.get("rotor_drag_coef", 0.0)
+        # The rotor plane sits above the centre of mass: the H-force acts there, so air moving across the
+        # discs (wind, a gust, turbulence) pitches and rolls the craft as well as pushing it.
+        self.rotor_height_m = a.get("rotor_height_m", 0.0)
         self.idle_current_a = a.get("idle_current_a", 0.5)
         # Momentum theory: power = T^1.5 / sqrt(2 rho A) / figure of merit / drive efficiency.
         disc = math.pi * (a["prop_diameter_m"] * 0.5) ** 2
@@ -123,6 +126,10 @@ class Vehicle:
         self.wind_n = 0.0
         self.wind_e = 0.0
         self.wind_d = 0.0
+        # An outside torque on the body (a scenario's `torque` disturbance), N m, FRD.
+        self.torque_x_nm = 0.0
+        self.torque_y_nm = 0.0
+        self.torque_z_nm = 0.0
 
     def hover_omega(self):
         return math.sqrt(self.mass_kg * G_M_S2 / (self.n * self.kt))
@@ -205,6 +212,10 @@ class Vehicle:
             by = r01 * an + r11 * ae + r21 * ad
             fx_body -= kd * bx
             fy_body -= kd * by
+            # acting at the rotor plane, h above the centre of mass (r = (0, 0, -h)): r x F
+            h = self.rotor_height_m
+            tx -= h * kd * by
+            ty += h * kd * bx
         # Non-gravitational force in the world frame.
         fn = r00 * fx_body + r01 * fy_body + r02 * fz_body + dn
         fe = r10 * fx_body + r11 * fy_body + r12 * fz_body + de
@@ -227,9 +238,9 @@ class Vehicle:
         iyy = self.iyy
         izz = self.izz
         damp = self.ang_damping
-        tx -= damp * p
-        ty -= damp * q
-        tz -= damp * r
+        tx += self.torque_x_nm - damp * p
+        ty += self.torque_y_nm - damp * q
+        tz += self.torque_z_nm - damp * r
         p += (tx - (izz - iyy) * q * r) / ixx * dt
         q += (ty - (ixx - izz) * p * r) / iyy * dt
         r += (tz - (iyy - ixx) * p * q) / izz * dt

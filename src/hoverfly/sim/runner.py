@@ -3,10 +3,12 @@
 Each step: the pilot moves the sticks, the physics advances one loop period, the IMU
 model samples it into the sim board, and the flight core runs one pass. Deterministic
 for a seed. The result is what `hoverfly fly --json` prints: tilt, altitude, drift,
-events, every commanded step's rise/overshoot/settle, and the loop's own cost.
+events, every commanded step's rise/overshoot/settle, every disturbance's recovery (kick, torque,
+gust), and the loop's own cost.
 """
 
 import math
+import random
 import time
 
 from hoverfly.compat import ticks_diff
@@ -91,6 +93,52 @@ class StepMeter:
         return r
 
 
+RECOVERED_DEG = 2.0  # a disturbance is over once the attitude is back within this of where it was
+
+
+class DisturbanceMeter:
+    """One disturbance (a rate kick, an outside torque, a gust): how far the attitude was pushed from where
+    it was when the disturbance began (roll and pitch, deg) and when it was back within RECOVERED_DEG for
+    good. Measured on the true attitude, as the steps are, from the disturbance's start until the next
+    disturbance, step or mode change."""
+
+    def __init__(self, kind, detail, t0_s, roll_rad, pitch_rad, duration_s):
+        self.kind = kind
+        self.detail = detail
+        self.t0_s = t0_s
+        self.roll0 = roll_rad
+        self.pitch0 = pitch_rad
+        self.duration_s = duration_s
+        self.peak_deg = 0.0
+        self.last_out_s = None  # the last time the attitude was further off than RECOVERED_DEG
+        self.end_s = t0_s
+        self.sq = 0.0
+        self.n = 0
+
+    def add(self, t_s, roll_rad, pitch_rad):
+        dr = roll_rad - self.roll0
+        dp = pitch_rad - self.pitch0
+        dev = math.sqrt(dr * dr + dp * dp) * _DEG
+        if dev > self.peak_deg:
+            self.peak_deg = dev
+        if dev > RECOVERED_DEG:
+            self.last_out_s = t_s
+        self.sq += dev * dev
+        self.n += 1
+        self.end_s = t_s
+
+    def result(self):
+        back = 0.0
+        if self.last_out_s is not None:
+            # still out at the window's end: never back (None)
+            back = None if self.last_out_s >= self.end_s else round((self.last_out_s - self.t0_s) * 1000.0 + 1.0, 1)
+        r = {"kind": self.kind, "t_s": round(self.t0_s, 3), "duration_s": round(self.duration_s, 3),
+             "peak_deg": round(self.peak_deg, 2), "back_within_2deg_ms": back,
+             "rms_deg": round(math.sqrt(self.sq / self.n), 3) if self.n else 0.0}
+        r.update(self.detail)
+        return r
+
+
 class SimRun:
     def __init__(self, airframe="5inch", scenario="demo", seed=1, overrides=(), duration_s=None,
                  realtime=False, firmware="cpython", micropython=None, rx="crsf", esc="dshot600",
@@ -159,6 +207,10 @@ class SimRun:
         self.pilot.map = map_channels(self.params.get("rc_map"))  # the transmitter as the flight reads it
         self.pilot.hover_guess = self._hover_throttle_guess()
         self.events_out = []
+        self.disturbances = []  # DisturbanceMeter, in the order they began
+        self._torque_until = None
+        self._turbulence = None  # a gust's random wind: [rms m/s, n, e, d], while the gust lasts
+        self._gust_wind = (0.0, 0.0, 0.0)
         self.on_step = None  # optional hook: fn(run) after every pass (logger, ground station)
         self.companion = None  # the scripted companion computer (msp_rc events), made on first use
         self.log = None  # flight log (logs/writer.py): the logger's ring written out to log_path
@@ -282,6 +334,12 @@ class SimRun:
             if gust_until is not None and t >= gust_until:
                 v.wind_n, v.wind_e, v.wind_d = base_wind
                 gust_until = None
+                self._turbulence = None
+            elif self._turbulence is not None:
+                self._turbulent_wind(v, base_wind, dt)
+            if self._torque_until is not None and t >= self._torque_until:
+                v.torque_x_nm = v.torque_y_nm = v.torque_z_nm = 0.0
+                self._torque_until = None
             euler = v.euler_rad()  # what the pilot sees: the state at the start of this step
             pilot.update(t, dt, v, euler)
             if self.companion is not None:  # the companion computer's MSP RC, due before this pass
@@ -343,6 +401,10 @@ class SimRun:
             if steps_open:
                 for meter in steps_open.values():
                     meter.add(t, self._step_signal(meter, v, roll, pitch))
+            if self.disturbances:
+                meter = self.disturbances[-1]
+                if meter is not None:
+                    meter.add(t, roll, pitch)
             if flip is None:
                 if pilot._flip_phase:
                     flip = {"axis": pilot.flip_axis, "t_s": round(t, 3), "start_alt_m": alt, "min_alt_m": alt,
@@ -398,6 +460,7 @@ class SimRun:
             },
             "horizontal_drift_m": round(drift, 3),
             "steps": [m.result() for m in steps_done],
+            "disturbances": [m.result() for m in self.disturbances if m is not None],
             "flips": flips,
             "loop": {
                 "mean_us": round(loop_sum / n_steps * 1e6, 2) if n_steps else 0.0,
@@ -470,19 +533,67 @@ class SimRun:
         return (roll, pitch, 0.0)[i] * _DEG
 
     def _stick_for(self, axis, value, unit):
-        """The stick deflection that asks for `value` (pitch up positive) on `axis`."""
+        """The stick deflection that asks for `value` (pitch up positive) on `axis`: where a pilot holds
+        the stick for it, so through the flight's whole stick path (its deadband taken out and the rest
+        rescaled, as core/stages/rc.py does) and on the whole microsecond nearest to it."""
         rc = self.flight.rc
         i = ("roll", "pitch", "yaw").index(axis)
         if unit == "dps":
-            s = rc.rates[i].stick_for_rate(value / _DEG)
+            curve = rc.rates[i].rate_rad_s
+            want = value / _DEG
+            s = rc.rates[i].stick_for_rate(want)
         else:
-            s = (value / _DEG) / rc.angle_limit_rad
-            s = max(-1.0, min(1.0, s))
-        return -s if axis == "pitch" else s
+            lim = rc.angle_limit_rad
+            want = value / _DEG
+
+            def curve(x):
+                return x * lim
+
+            s = max(-1.0, min(1.0, want / lim))
+        db = float(self.params.get("yaw_deadband" if axis == "yaw" else "deadband"))
+        if s == 0.0:
+            return 0.0
+        a = abs(s)
+        d = db + a * (500.0 - db)  # the pulse offset the flight reads as `a`
+        best = None
+        for us in (math.floor(d), math.ceil(d)):
+            us = min(500, max(0, us))
+            x = max(0.0, us - db) / (500.0 - db)
+            err = abs(abs(curve(x)) - abs(want))
+            if best is None or err < best[0]:
+                best = (err, us)
+        # the channel moves the other way for pitch up (the stick pulled back)
+        up = (s > 0) != (axis == "pitch")
+        # a quarter microsecond towards 2000: the pilot's int() of 1500 + 500 * stick lands on this pulse
+        mag = (best[1] + 0.25) / 500.0 if up else (best[1] - 0.25) / 500.0
+        mag = min(1.0, mag)
+        return mag if up else -mag
+
+    def _disturbance(self, kind, detail, t, v, duration_s):
+        """Start measuring a disturbance from the attitude it meets (the one before it ends)."""
+        roll, pitch, _ = v.euler_rad()
+        self.disturbances.append(DisturbanceMeter(kind, detail, t, roll, pitch, duration_s))
+
+    def _turbulent_wind(self, v, base_wind, dt):
+        """A gust's turbulence: each wind component a first-order Gauss-Markov process of the asked RMS
+        and a 1 s correlation time (Dryden's low-altitude scale over a few m/s), on top of the gust."""
+        tb = self._turbulence
+        rms = tb[0]
+        a = dt / 1.0
+        k = rms * math.sqrt(2.0 * a)
+        gauss = self._turb_rng.gauss
+        for i in (1, 2, 3):
+            tb[i] += -a * tb[i] + k * gauss(0.0, 1.0)
+        gw = self._gust_wind
+        v.wind_n = base_wind[0] + gw[0] + tb[1]
+        v.wind_e = base_wind[1] + gw[1] + tb[2]
+        v.wind_d = base_wind[2] + gw[2] + tb[3] * 0.5  # vertical turbulence is weaker near the ground
 
     def _apply_event(self, ev, t, v, last_cmd, steps_open, steps_done, base_wind):
         p = self.pilot
         gust_until = None
+        if ("step" in ev or "mode" in ev) and self.disturbances:
+            self.disturbances.append(None)  # a step or mode change ends the window of the disturbance before
         if "arm" in ev:
             p.arm = ev["arm"]
         if "mode" in ev:
@@ -533,6 +644,7 @@ class SimRun:
             steps_open[axis] = StepMeter(axis, mode, start, to, unit, t)
         if "kick" in ev:
             k = ev["kick"]
+            self._disturbance("kick", dict(k), t, v, 0.0)
             v.p += k.get("roll_dps", 0.0) / _DEG
             v.q += k.get("pitch_dps", 0.0) / _DEG
             v.r += k.get("yaw_dps", 0.0) / _DEG
@@ -544,10 +656,26 @@ class SimRun:
             v.wind_n, v.wind_e, v.wind_d = base_wind
         if "gust" in ev:
             g = ev["gust"]
-            v.wind_n = base_wind[0] + g.get("north_m_s", 0.0)
-            v.wind_e = base_wind[1] + g.get("east_m_s", 0.0)
-            v.wind_d = base_wind[2] + g.get("down_m_s", 0.0)
+            self._gust_wind = (g.get("north_m_s", 0.0), g.get("east_m_s", 0.0), g.get("down_m_s", 0.0))
+            v.wind_n = base_wind[0] + self._gust_wind[0]
+            v.wind_e = base_wind[1] + self._gust_wind[1]
+            v.wind_d = base_wind[2] + self._gust_wind[2]
             gust_until = t + g.get("duration_s", 1.0)
+            self._turbulence = None
+            if g.get("turbulence_m_s", 0.0) > 0.0:
+                if not hasattr(self, "_turb_rng"):
+                    self._turb_rng = random.Random(self.seed * 7919 + 17)
+                rms = g["turbulence_m_s"]
+                gauss = self._turb_rng.gauss
+                self._turbulence = [rms, rms * gauss(0.0, 1.0), rms * gauss(0.0, 1.0), rms * gauss(0.0, 1.0)]
+            self._disturbance("gust", dict(g), t, v, g.get("duration_s", 1.0))
+        if "torque" in ev:
+            tq = ev["torque"]
+            v.torque_x_nm = tq.get("roll_nm", 0.0)
+            v.torque_y_nm = tq.get("pitch_nm", 0.0)
+            v.torque_z_nm = tq.get("yaw_nm", 0.0)
+            self._torque_until = t + tq.get("duration_s", 0.1)
+            self._disturbance("torque", dict(tq), t, v, tq.get("duration_s", 0.1))
         if "stall_ms" in ev:
             self._stall_until = t + ev["stall_ms"] * 1e-3
             self.events_out.append({"t_s": round(t, 4), "event": "stall", "detail": "%g ms" % ev["stall_ms"]})

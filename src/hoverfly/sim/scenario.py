@@ -16,7 +16,9 @@ Keys an `[[at]]` entry may hold (several at once):
     or false to hand the throttle back), fly_to ([north_m, east_m], angle mode), land (true: descend,
     touch down, disarm), step ({axis, to, unit: "dps" in acro or "deg" in angle/horizon; pitch up is
     positive}), kick ({roll_dps, pitch_dps, yaw_dps}: an instant change of body rate), gust
-    ({north_m_s, east_m_s, down_m_s, duration_s}), wind ({north_m_s, east_m_s, down_m_s}), flip
+    ({north_m_s, east_m_s, down_m_s, duration_s, turbulence_m_s: random wind of that RMS on top, seeded,
+    for the gust's duration}), wind ({north_m_s, east_m_s, down_m_s}), torque ({roll_nm, pitch_nm,
+    yaw_nm, duration_s}: an outside torque on the body, FRD, for that long), flip
     ("roll" or "pitch": a full 360° in acro, flown as a pilot would), rx_lost (bool), imu_freeze (bool),
     stall_ms (the flight controller stalls this long: no pass runs, the board's output timer does),
     set ({name = value}: change parameters in flight),
@@ -48,7 +50,7 @@ HERE = pathlib.Path(__file__).parent / "scenarios"
 _EVENT_KEYS = {
     "t", "arm", "mode", "throttle", "throttle_us", "roll", "pitch", "yaw", "roll_us", "pitch_us", "yaw_us",
     "hold_altitude_m", "fly_to", "land", "step", "kick", "gust", "wind", "flip", "rx_lost", "imu_freeze",
-    "set", "note", "stall_ms",
+    "set", "note", "stall_ms", "torque",
     "imu_stuck", "autopilot_switch", "msp_rc", "config_session", "channel", "throw",
 }
 _MSP_RC_KEYS = ("roll", "pitch", "yaw", "throttle", "arm", "rate_hz", "channels", "hold_altitude_m")
@@ -166,7 +168,8 @@ def _check_event(where, ev, duration_s):
             raise UserError("%s: step unit must be dps or deg" % where)
         _num(where, "step.to", st["to"], -2000, 2000)
     for key, allowed, lim in (("kick", ("roll_dps", "pitch_dps", "yaw_dps"), 3000),
-                              ("gust", ("north_m_s", "east_m_s", "down_m_s", "duration_s"), 100),
+                              ("gust", ("north_m_s", "east_m_s", "down_m_s", "duration_s", "turbulence_m_s"), 100),
+                              ("torque", ("roll_nm", "pitch_nm", "yaw_nm", "duration_s"), 100),
                               ("wind", ("north_m_s", "east_m_s", "down_m_s"), 100)):
         if key in ev:
             tab = ev[key]
@@ -175,7 +178,7 @@ def _check_event(where, ev, duration_s):
             for k, v in tab.items():
                 if k not in allowed:
                     raise UserError("%s: %s has no field '%s' (%s)" % (where, key, k, ", ".join(allowed)))
-                _num(where, key + "." + k, v, -lim, lim)
+                _num(where, key + "." + k, v, 0.0 if k in ("duration_s", "turbulence_m_s") else -lim, lim)
     if "throw" in ev and ev["throw"] is not True:
         th = ev["throw"]
         if not isinstance(th, dict):
