@@ -13,7 +13,7 @@ to SI once, in configure().
 LIVE = 0
 REBOOT = 1
 
-FRAMES = ("quadx", "quadx_seed000", "quadp", "hexx", "tri")
+FRAMES = ("quadx", "quadx_seed000", "quadp", "hexx", "tri", "airplane", "flying_wing", "vtail")
 MODES = ("acro", "angle", "horizon")
 FILTER_TYPES = ("pt1", "pt2", "biquad")
 TPA_MODES = ("pd", "d")
@@ -40,6 +40,17 @@ PARAMS = (
     ("gyro_lpf2_hz",       500,    0,    4000,   "Hz",          LIVE,   "gyro low-pass 2 (PT1) cutoff; off at or above half the loop rate"),
     ("gyro_notch1_hz",       0,    0,    1000,   "Hz",          LIVE,   "gyro notch centre, 0 = off"),
     ("gyro_notch1_cut",      0,    0,    1000,   "Hz",          LIVE,   "gyro notch lower cutoff (sets its width)"),
+    ("rpm_harmonics",        0,    0,       3,   "",            LIVE,   "RPM filter: notches per motor at its rotation frequency and harmonics (1..3), 0 = off; needs dshot_bidir"),
+    ("rpm_min_hz",         100,   30,     200,   "Hz",          LIVE,   "RPM filter: lowest notch frequency (a notch below it is off)"),
+    ("rpm_fade_hz",         50,    0,     200,   "Hz",          LIVE,   "RPM filter: a notch fades in over this range above rpm_min_hz"),
+    ("rpm_filter_q",       500,  250,    3000,   "1/100",       LIVE,   "RPM filter: notch Q x 100 (500 = Q 5; higher is narrower)"),
+    ("rpm_weight1_pct",    100,    0,     100,   "%",           LIVE,   "RPM filter: depth of the notch at the motor frequency"),
+    ("rpm_weight2_pct",    100,    0,     100,   "%",           LIVE,   "RPM filter: depth of the 2nd-harmonic notch"),
+    ("rpm_weight3_pct",    100,    0,     100,   "%",           LIVE,   "RPM filter: depth of the 3rd-harmonic notch"),
+    ("dyn_notch_count",      0,    0,       3,   "",            LIVE,   "dynamic notches per gyro axis on the strongest spectrum peaks, 0 = off"),
+    ("dyn_notch_q",        300,  100,    1000,   "1/100",       LIVE,   "dynamic notch Q x 100 (300 = Q 3)"),
+    ("dyn_notch_min_hz",   100,   20,     250,   "Hz",          LIVE,   "dynamic notch: lowest peak tracked"),
+    ("dyn_notch_max_hz",   600,  200,    1000,   "Hz",          LIVE,   "dynamic notch: highest peak tracked (at most 0.48 x loop_hz)"),
     ("acc_lpf_hz",          25,    0,     500,   "Hz",          LIVE,   "accelerometer low-pass (PT2) for the estimator, 0 = off"),
     ("gyro_cal_ms",       1000,  100,   10000,   "ms",          LIVE,   "boot gyro calibration: still time averaged"),
     ("gyro_cal_dps",       4.0,  0.5,    50.0,   "deg/s",       LIVE,   "boot gyro calibration: motion that restarts it"),
@@ -176,9 +187,104 @@ PARAMS = (
     ("motor4_max_us",     2000, 1000,    2000,   "us",          LIVE,   "motor 4 highest command, PWM scale"),
     ("motor_test_pct",    30.0,  0.0,   100.0,   "%",           LIVE,   "motor test: highest output allowed"),
     ("servo_pwm_rate",      50,   50,     333,   "Hz",          REBOOT, "servo output rate"),
-    ("servo_min_us",      1000,  500,    2500,   "us",          LIVE,   "servo end point at -1"),
-    ("servo_mid_us",      1500,  500,    2500,   "us",          LIVE,   "servo centre: disarmed and output-failsafe position"),
-    ("servo_max_us",      2000,  500,    2500,   "us",          LIVE,   "servo end point at +1"),
+    # servos as INAV's `servo N min max mid rate` (index 0..7; servo 0 is a tricopter's tail) and its `smix`
+    # rules (docs/fixed-wing.md): a rule with rate 0 is unused; with every rate 0 the mixer_type's preset applies
+    ("servo0_min_us",     1000,  500,    2500,   "us",          LIVE,   "servo 0 end point at full negative travel (INAV servo min)"),
+    ("servo0_mid_us",     1500,  500,    2500,   "us",          LIVE,   "servo 0 centre, its trim: disarmed and failsafe position"),
+    ("servo0_max_us",     2000,  500,    2500,   "us",          LIVE,   "servo 0 end point at full positive travel (INAV servo max)"),
+    ("servo0_rate",        100, -125,     125,   "%",           LIVE,   "servo 0 rate, negative = reversed (INAV servo rate)"),
+    ("servo1_min_us",     1000,  500,    2500,   "us",          LIVE,   "servo 1 low end point"),
+    ("servo1_mid_us",     1500,  500,    2500,   "us",          LIVE,   "servo 1 centre and trim: disarmed and failsafe position"),
+    ("servo1_max_us",     2000,  500,    2500,   "us",          LIVE,   "servo 1 high end point"),
+    ("servo1_rate",        100, -125,     125,   "%",           LIVE,   "servo 1 rate, negative = reversed"),
+    ("servo2_min_us",     1000,  500,    2500,   "us",          LIVE,   "servo 2 low end point"),
+    ("servo2_mid_us",     1500,  500,    2500,   "us",          LIVE,   "servo 2 centre and trim: disarmed and failsafe position"),
+    ("servo2_max_us",     2000,  500,    2500,   "us",          LIVE,   "servo 2 high end point"),
+    ("servo2_rate",        100, -125,     125,   "%",           LIVE,   "servo 2 rate, negative = reversed"),
+    ("servo3_min_us",     1000,  500,    2500,   "us",          LIVE,   "servo 3 low end point"),
+    ("servo3_mid_us",     1500,  500,    2500,   "us",          LIVE,   "servo 3 centre and trim: disarmed and failsafe position"),
+    ("servo3_max_us",     2000,  500,    2500,   "us",          LIVE,   "servo 3 high end point"),
+    ("servo3_rate",        100, -125,     125,   "%",           LIVE,   "servo 3 rate, negative = reversed"),
+    ("servo4_min_us",     1000,  500,    2500,   "us",          LIVE,   "servo 4 low end point"),
+    ("servo4_mid_us",     1500,  500,    2500,   "us",          LIVE,   "servo 4 centre and trim: disarmed and failsafe position"),
+    ("servo4_max_us",     2000,  500,    2500,   "us",          LIVE,   "servo 4 high end point"),
+    ("servo4_rate",        100, -125,     125,   "%",           LIVE,   "servo 4 rate, negative = reversed"),
+    ("servo5_min_us",     1000,  500,    2500,   "us",          LIVE,   "servo 5 low end point"),
+    ("servo5_mid_us",     1500,  500,    2500,   "us",          LIVE,   "servo 5 centre and trim: disarmed and failsafe position"),
+    ("servo5_max_us",     2000,  500,    2500,   "us",          LIVE,   "servo 5 high end point"),
+    ("servo5_rate",        100, -125,     125,   "%",           LIVE,   "servo 5 rate, negative = reversed"),
+    ("servo6_min_us",     1000,  500,    2500,   "us",          LIVE,   "servo 6 low end point"),
+    ("servo6_mid_us",     1500,  500,    2500,   "us",          LIVE,   "servo 6 centre and trim: disarmed and failsafe position"),
+    ("servo6_max_us",     2000,  500,    2500,   "us",          LIVE,   "servo 6 high end point"),
+    ("servo6_rate",        100, -125,     125,   "%",           LIVE,   "servo 6 rate, negative = reversed"),
+    ("servo7_min_us",     1000,  500,    2500,   "us",          LIVE,   "servo 7 low end point"),
+    ("servo7_mid_us",     1500,  500,    2500,   "us",          LIVE,   "servo 7 centre and trim: disarmed and failsafe position"),
+    ("servo7_max_us",     2000,  500,    2500,   "us",          LIVE,   "servo 7 high end point"),
+    ("servo7_rate",        100, -125,     125,   "%",           LIVE,   "servo 7 rate, negative = reversed"),
+    ("smix0_servo",           0,    0,       7,   "",            LIVE,   "servo mixer rule 0 (smix): the servo it moves, 0..7"),
+    ("smix0_input",           0,    0,      28,   "",            LIVE,   "rule 0: input, INAV's source id (0..3 stabilised roll pitch yaw throttle, 4.. RC)"),
+    ("smix0_rate",            0, -125,     125,   "%",           LIVE,   "rule 0: weight of the input, negative reverses; 0 = rule unused"),
+    ("smix0_speed",           0,    0,     255,   "10us/s",      LIVE,   "rule 0: speed limit of the input in 10 us/s, 0 = none"),
+    ("smix1_servo",           0,    0,       7,   "",            LIVE,   "smix rule 1: servo"),
+    ("smix1_input",           0,    0,      28,   "",            LIVE,   "smix rule 1: input source id"),
+    ("smix1_rate",            0, -125,     125,   "%",           LIVE,   "smix rule 1: weight, 0 = unused"),
+    ("smix1_speed",           0,    0,     255,   "10us/s",      LIVE,   "smix rule 1: speed limit, 0 = none"),
+    ("smix2_servo",           0,    0,       7,   "",            LIVE,   "smix rule 2: servo"),
+    ("smix2_input",           0,    0,      28,   "",            LIVE,   "smix rule 2: input source id"),
+    ("smix2_rate",            0, -125,     125,   "%",           LIVE,   "smix rule 2: weight, 0 = unused"),
+    ("smix2_speed",           0,    0,     255,   "10us/s",      LIVE,   "smix rule 2: speed limit, 0 = none"),
+    ("smix3_servo",           0,    0,       7,   "",            LIVE,   "smix rule 3: servo"),
+    ("smix3_input",           0,    0,      28,   "",            LIVE,   "smix rule 3: input source id"),
+    ("smix3_rate",            0, -125,     125,   "%",           LIVE,   "smix rule 3: weight, 0 = unused"),
+    ("smix3_speed",           0,    0,     255,   "10us/s",      LIVE,   "smix rule 3: speed limit, 0 = none"),
+    ("smix4_servo",           0,    0,       7,   "",            LIVE,   "smix rule 4: servo"),
+    ("smix4_input",           0,    0,      28,   "",            LIVE,   "smix rule 4: input source id"),
+    ("smix4_rate",            0, -125,     125,   "%",           LIVE,   "smix rule 4: weight, 0 = unused"),
+    ("smix4_speed",           0,    0,     255,   "10us/s",      LIVE,   "smix rule 4: speed limit, 0 = none"),
+    ("smix5_servo",           0,    0,       7,   "",            LIVE,   "smix rule 5: servo"),
+    ("smix5_input",           0,    0,      28,   "",            LIVE,   "smix rule 5: input source id"),
+    ("smix5_rate",            0, -125,     125,   "%",           LIVE,   "smix rule 5: weight, 0 = unused"),
+    ("smix5_speed",           0,    0,     255,   "10us/s",      LIVE,   "smix rule 5: speed limit, 0 = none"),
+    ("smix6_servo",           0,    0,       7,   "",            LIVE,   "smix rule 6: servo"),
+    ("smix6_input",           0,    0,      28,   "",            LIVE,   "smix rule 6: input source id"),
+    ("smix6_rate",            0, -125,     125,   "%",           LIVE,   "smix rule 6: weight, 0 = unused"),
+    ("smix6_speed",           0,    0,     255,   "10us/s",      LIVE,   "smix rule 6: speed limit, 0 = none"),
+    ("smix7_servo",           0,    0,       7,   "",            LIVE,   "smix rule 7: servo"),
+    ("smix7_input",           0,    0,      28,   "",            LIVE,   "smix rule 7: input source id"),
+    ("smix7_rate",            0, -125,     125,   "%",           LIVE,   "smix rule 7: weight, 0 = unused"),
+    ("smix7_speed",           0,    0,     255,   "10us/s",      LIVE,   "smix rule 7: speed limit, 0 = none"),
+    ("smix8_servo",           0,    0,       7,   "",            LIVE,   "smix rule 8: servo"),
+    ("smix8_input",           0,    0,      28,   "",            LIVE,   "smix rule 8: input source id"),
+    ("smix8_rate",            0, -125,     125,   "%",           LIVE,   "smix rule 8: weight, 0 = unused"),
+    ("smix8_speed",           0,    0,     255,   "10us/s",      LIVE,   "smix rule 8: speed limit, 0 = none"),
+    ("smix9_servo",           0,    0,       7,   "",            LIVE,   "smix rule 9: servo"),
+    ("smix9_input",           0,    0,      28,   "",            LIVE,   "smix rule 9: input source id"),
+    ("smix9_rate",            0, -125,     125,   "%",           LIVE,   "smix rule 9: weight, 0 = unused"),
+    ("smix9_speed",           0,    0,     255,   "10us/s",      LIVE,   "smix rule 9: speed limit, 0 = none"),
+    ("smix10_servo",          0,    0,       7,   "",            LIVE,   "smix rule 10: servo"),
+    ("smix10_input",          0,    0,      28,   "",            LIVE,   "smix rule 10: input source id"),
+    ("smix10_rate",           0, -125,     125,   "%",           LIVE,   "smix rule 10: weight, 0 = unused"),
+    ("smix10_speed",          0,    0,     255,   "10us/s",      LIVE,   "smix rule 10: speed limit, 0 = none"),
+    ("smix11_servo",          0,    0,       7,   "",            LIVE,   "smix rule 11: servo"),
+    ("smix11_input",          0,    0,      28,   "",            LIVE,   "smix rule 11: input source id"),
+    ("smix11_rate",           0, -125,     125,   "%",           LIVE,   "smix rule 11: weight, 0 = unused"),
+    ("smix11_speed",          0,    0,     255,   "10us/s",      LIVE,   "smix rule 11: speed limit, 0 = none"),
+    ("smix12_servo",          0,    0,       7,   "",            LIVE,   "smix rule 12: servo"),
+    ("smix12_input",          0,    0,      28,   "",            LIVE,   "smix rule 12: input source id"),
+    ("smix12_rate",           0, -125,     125,   "%",           LIVE,   "smix rule 12: weight, 0 = unused"),
+    ("smix12_speed",          0,    0,     255,   "10us/s",      LIVE,   "smix rule 12: speed limit, 0 = none"),
+    ("smix13_servo",          0,    0,       7,   "",            LIVE,   "smix rule 13: servo"),
+    ("smix13_input",          0,    0,      28,   "",            LIVE,   "smix rule 13: input source id"),
+    ("smix13_rate",           0, -125,     125,   "%",           LIVE,   "smix rule 13: weight, 0 = unused"),
+    ("smix13_speed",          0,    0,     255,   "10us/s",      LIVE,   "smix rule 13: speed limit, 0 = none"),
+    ("smix14_servo",          0,    0,       7,   "",            LIVE,   "smix rule 14: servo"),
+    ("smix14_input",          0,    0,      28,   "",            LIVE,   "smix rule 14: input source id"),
+    ("smix14_rate",           0, -125,     125,   "%",           LIVE,   "smix rule 14: weight, 0 = unused"),
+    ("smix14_speed",          0,    0,     255,   "10us/s",      LIVE,   "smix rule 14: speed limit, 0 = none"),
+    ("smix15_servo",          0,    0,       7,   "",            LIVE,   "smix rule 15: servo"),
+    ("smix15_input",          0,    0,      28,   "",            LIVE,   "smix rule 15: input source id"),
+    ("smix15_rate",           0, -125,     125,   "%",           LIVE,   "smix rule 15: weight, 0 = unused"),
+    ("smix15_speed",          0,    0,     255,   "10us/s",      LIVE,   "smix rule 15: speed limit, 0 = none"),
     # --- autopilot link and built-in test
     ("ap_ch",                7,    0,      18,   "ch",          LIVE,   "autopilot mode switch channel (AUX3 = 7), 0 = no autopilot"),
     ("ap_min_us",         1700,  900,    2100,   "us",          LIVE,   "autopilot switch range start"),
@@ -232,6 +338,9 @@ _APPLIES = 5
 ALIASES = {
     "gyro_lpf1_static_hz": ("gyro_lpf1_hz", 1),
     "gyro_lpf2_static_hz": ("gyro_lpf2_hz", 1),
+    "rpm_filter_harmonics": ("rpm_harmonics", 1),
+    "rpm_filter_min_hz": ("rpm_min_hz", 1),
+    "rpm_filter_fade_range_hz": ("rpm_fade_hz", 1),
     "dterm_lpf1_static_hz": ("dterm_lpf1_hz", 1),
     "align_board_roll": ("board_roll_deg", 1),
     "align_board_pitch": ("board_pitch_deg", 1),
@@ -249,6 +358,10 @@ ALIASES = {
     "failsafe_delay": ("fs_delay_ms", 100),  # Betaflight: tenths of a second
     "gyro_calib_duration": ("gyro_cal_ms", 10),  # Betaflight: hundredths of a second
     "serial_update_rate_hz": ("serial_update_hz", 1),  # seed 004: `set serial_update_rate_hz = 2000`
+    # the one servo's end points before per-servo rows (a tricopter's tail is servo 0): old saves and scripts
+    "servo_min_us": ("servo0_min_us", 1),
+    "servo_mid_us": ("servo0_mid_us", 1),
+    "servo_max_us": ("servo0_max_us", 1),
 }
 
 _HUGE = 1000000000000000  # 1e15: a whole number past this is shown as "huge" (CPython cannot str() 10**5000)
@@ -475,6 +588,18 @@ def rc_map_error(value):
 
 # Checks a range cannot express, per parameter: fn(value) -> None or the one-line reason.
 _EXTRA_CHECKS = {"rc_map": rc_map_error}
+
+
+def smix_input_error(value):
+    """None for a servo-mixer input hoverfly has, else why not: INAV's 12, 13 (gimbal) and 14 (flaps) are not."""
+    if 12 <= value <= 14:
+        return "smix input %d (%s) is not supported: inputs are 0..11 and 15..28" % (
+            value, "flaps" if value == 14 else "gimbal")
+    return None
+
+
+for _i in range(16):
+    _EXTRA_CHECKS["smix%d_input" % _i] = smix_input_error
 
 
 class Params:

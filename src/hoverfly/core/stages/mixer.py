@@ -10,7 +10,9 @@ Presets: `quadx` is Betaflight's motor order (1 rear right, 2 front right, 3 rea
 4 front left; Betaflight's pitch column has the opposite sign because Betaflight counts
 nose-down as positive). `quadx_seed000` is the PicoFlight table of seed 000 taken
 literally in this frame, which puts M1 front right, M2 rear right, M3 front left, M4 rear
-left. `quadp`, `hexx` (Betaflight order) and `tri` (three motors, yaw by a tail servo).
+left. `quadp`, `hexx` (Betaflight order) and `tri` (three motors, yaw by a tail servo). The
+planes (`airplane`, `flying_wing`, `vtail`: `is_plane`) have one motor on the throttle; their
+surfaces are mixed by the servo mixer (core/stages/servos.py) from the same torque commands.
 
 Desaturation keeps attitude authority: when the torque mix spans more than the motor
 range it is scaled down as a whole (ratios kept); otherwise throttle is shifted so no
@@ -54,7 +56,19 @@ MIXER_TABLES = {
         (1.0, -1.0, 0.666667, 0.0),  # 2 front right
         (1.0, 1.0, 0.666667, 0.0),  # 3 front left
     ),
+    # Planes: one motor on the throttle alone; the surfaces are the servo mixer's (core/stages/servos.py).
+    "airplane": ((1.0, 0.0, 0.0, 0.0),),
+    "flying_wing": ((1.0, 0.0, 0.0, 0.0),),
+    "vtail": ((1.0, 0.0, 0.0, 0.0),),
 }
+
+# INAV's fixed-wing platforms: surfaces on servos, one motor.
+PLANE_TYPES = ("airplane", "flying_wing", "vtail")
+
+
+def is_plane(mixer_type):
+    """True for a fixed-wing mixer_type: the one test the controller, commander and failsafe pick by."""
+    return mixer_type in PLANE_TYPES
 
 # Frames whose yaw comes from a servo rather than from prop torque: (servo index, sign).
 SERVO_YAW = {"tri": (0, 1.0)}
