@@ -27,6 +27,8 @@ EV_AUTOPILOT_ENABLED = const(14)
 EV_AUTOPILOT_OVERRIDE = const(15)
 EV_AUTOPILOT_DISABLED = const(16)
 EV_OUTPUT_FAILSAFE = const(17)
+EV_RPM_LOST = const(18)  # a motor's eRPM telemetry stopped: its RPM-filter notches fade out (detail: motor 1..n)
+EV_RPM_RESTORED = const(19)  # ... and came back
 
 EVENT_NAMES = (
     "armed",
@@ -47,6 +49,8 @@ EVENT_NAMES = (
     "autopilot_override",
     "autopilot_disabled",
     "output_failsafe",
+    "rpm_lost",
+    "rpm_restored",
 )
 
 # Why a disarm happened (detail of EV_DISARMED).

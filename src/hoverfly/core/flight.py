@@ -37,6 +37,7 @@ from hoverfly.core.stages.output import HAS_ACCEL as _FIXED_OUT_ACCEL
 from hoverfly.core.stages.output import OutputStage
 from hoverfly.core.stages.rc import RcInput
 from hoverfly.core.stages.receiver import Receiver
+from hoverfly.core.stages.rpmfilter import RpmFilter
 
 # With no log running, the fixed controller writes its PID terms and torques out every this many passes
 # (the maintenance telemetry reads them: at 1 kHz, at most 8 ms old).
@@ -69,6 +70,8 @@ class Flight:
         self._out_more = False  # a yaw servo or bidirectional DShot: _outputs has more to do (configure)
         self.fixed_att = FixedAttitude()  # the estimator (Mahony) in fixed point, likewise
         self._fixed_att_on = False
+        self.rpm_filter = RpmFilter(self.events)  # notches at the motors' frequencies (bidirectional DShot)
+        self._rpm_on = False
         self.output = OutputStage()
         self.arming = Arming(self.events)
         self.motor_test = MotorTest(self.arming)
@@ -167,6 +170,8 @@ class Flight:
         self.motor_test.configure(p, self.motor_count)
         self.board.configure_outputs(p, self.motor_count, servo_count)
         self._out_more = self.mixer.servo_yaw or self.output.bidir  # _outputs: a servo, or ESC replies
+        self.rpm_filter.configure(p, hz, self.motor_count, self.output.bidir)
+        self._rpm_on = self.rpm_filter.active
         self._rx_timeout_us = p.get("rx_timeout_ms") * 1000
         self._route()
         self._configured_at = p.changed
@@ -251,6 +256,8 @@ class Flight:
             else:
                 self.gyro_filter.update(s.gyro_raw_rad_s, self.calibration.bias_rad_s, s.gyro_rad_s)
                 self.accel_filter.update(s.accel_raw_m_s2, s.accel_m_s2)
+            if self._rpm_on:  # the motors' notches, on the previous pass's RPM (the replies come after the outputs)
+                self.rpm_filter.update(s.gyro_rad_s, s.motor_rpm, now_us)
         elif self.logger.active:  # no new sample: the log's integral_dt says so (Logger.update's full path)
             self.logger.full_pass_next()
         if self._att_fixed_now:  # the gyro average and the update every _att_every passes, as _estimate
@@ -356,6 +363,8 @@ class Flight:
         if self.board.read_motor_telemetry(output.reply_codes, n):
             s = self.signals
             output.decode_replies(n, s.motor_erpm, s.motor_rpm)
+            if self._rpm_on:
+                self.rpm_filter.telemetry(output.decoders, n)
 
     def _dt_s(self, dt_us):
         """The pass's dt in seconds, for the float stages (a float: the fixed-point pass takes dt_us)."""
@@ -442,6 +451,7 @@ class Flight:
             gf.lpf1[i].reset()
             gf.lpf2[i].reset()
             gf.notch[i].reset()
+        self.rpm_filter.reset()
         self.mahony.reset(self.signals.attitude)
         self.controller.reset()
         self._first_imu = True

@@ -46,6 +46,7 @@ LOAD = const(11)
 CALIBRATING = const(12)
 CLI = const(13)
 MSP = const(16)
+RPMFILTER = const(20)
 REBOOT_REQUIRED = const(21)
 ACC_CALIBRATION = const(23)
 MOTOR_PROTOCOL = const(24)
@@ -71,6 +72,8 @@ REASONS = {
     CALIBRATING: ("CALIB", "gyro not calibrated yet: keep the craft still"),
     CLI: ("CLI", "a configuration session (CLI) is open"),
     MSP: ("MSP", "a configurator (MSP) session is open, or arming was disabled over MSP"),
+    RPMFILTER: ("RPMFILTER", "RPM filter on (rpm_harmonics) but a motor's eRPM is missing: dshot_bidir off, or an ESC "
+                             "not answering"),
     REBOOT_REQUIRED: ("REBOOT_REQD", "a changed setting needs a reboot"),
     ACC_CALIBRATION: ("NO_ACC_CAL", "accelerometer not calibrated"),
     MOTOR_PROTOCOL: ("MOTOR_PROTO", "no motor protocol configured"),

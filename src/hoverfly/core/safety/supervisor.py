@@ -22,6 +22,7 @@ from hoverfly.core.safety.arming import (
     CRASH_DETECTED,
     FAILSAFE,
     MOTOR_TEST,
+    RPMFILTER,
     session_flags,
 )
 from hoverfly.core.safety.failsafe import (
@@ -225,6 +226,9 @@ class Supervisor:
             more |= 1 << CRASH_DETECTED
         if self.autopilot.switch_on():
             more |= 1 << AUTOPILOT
+        rpm = f.rpm_filter
+        if rpm.refused or rpm.lost:  # Betaflight's RPMFILTER: no flight on a filter that cannot see the motors
+            more |= 1 << RPMFILTER
         self.arming.check(now_us, self.imu_ok, self.calibration.calibrated, f.rx_ok, throttle_low,
                           self.signals.attitude.cos_tilt, self.overloaded, more)
 
