@@ -16,7 +16,8 @@ from hoverfly.core.stages.pid import AxisPid
 MODE_ACRO = const(0)
 MODE_ANGLE = const(1)
 MODE_HORIZON = const(2)
-MODE_NAMES = ("acro", "angle", "horizon")
+MODE_MANUAL = const(3)  # planes only: sticks to surfaces (core/stages/fwcontrol.py)
+MODE_NAMES = ("acro", "angle", "horizon", "manual")
 
 _DEG = math.pi / 180.0
 
