@@ -29,6 +29,7 @@ EV_AUTOPILOT_DISABLED = const(16)
 EV_OUTPUT_FAILSAFE = const(17)
 EV_RPM_LOST = const(18)  # a motor's eRPM telemetry stopped: its RPM-filter notches fade out (detail: motor 1..n)
 EV_RPM_RESTORED = const(19)  # ... and came back
+EV_LAUNCH = const(20)  # a plane's hand launch: waiting, thrown, motor, ended (core/command/launch.py LAUNCH_EVENTS)
 
 EVENT_NAMES = (
     "armed",
@@ -51,6 +52,7 @@ EVENT_NAMES = (
     "output_failsafe",
     "rpm_lost",
     "rpm_restored",
+    "launch",
 )
 
 # Why a disarm happened (detail of EV_DISARMED).
