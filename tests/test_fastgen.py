@@ -420,6 +420,73 @@ print("mismatches", bad)
 '''
 
 
+# The byte-level dialect the codecs are written in (protocols/rxcodec.py, crc.py): bytes and bytearrays as ptr8
+# (unsigned), 16-bit words as ptr16, module tables (bytes, array('H')) read through pointers, under another name
+# too, len() of a byte argument, byte stores, and an early return.
+DEMO_BYTES = '''
+from array import array
+
+_TABLE = bytes([(i * 37 + 11) & 0xFF for i in range(256)])
+_WORDS = array("H", [(i * 40503 + 7) & 0xFFFF for i in range(64)])
+
+
+# fastpass: mix src:B out:B words:H acc:i
+def mix(src, p, n, out, words, acc):
+    t = _TABLE
+    c = 0
+    for i in range(p, p + n):
+        c = t[c ^ src[i]]
+        out[i - p] = c
+        out[n + i - p] = (src[i] << 3) & 0xFF
+    words[0] = c | (src[p] << 8)
+    words[1] = _WORDS[c & 63]
+    acc[0] += _WORDS[c & 63] - 30000
+    if c > 200:
+        return len(src) - c
+    total = 0
+    k = 0
+    while k < n:
+        total += src[p + k] * (k + 1)
+        k += 1
+    return total
+'''
+
+DRIVER_BYTES = '''
+from array import array
+import demo_bytes
+import demo_bytes_fast
+
+s = [99]
+def rnd():
+    s[0] = (s[0] * 1103515245 + 12345) & 0x7FFFFFFF
+    return s[0] >> 8
+
+bad = 0
+for n in range(3000):
+    size = 1 + rnd() % 40
+    src = bytearray([rnd() & 0xFF for _ in range(size)])
+    if n & 1:
+        src = bytes(src)
+    p = rnd() % size
+    k = rnd() % (size - p + 1)
+    oa = bytearray(2 * k + 1)
+    ob = bytearray(2 * k + 1)
+    wa = array("H", [0, 0])
+    wb = array("H", [0, 0])
+    aa = array("i", [n * 7919 - 10000000])
+    ab = array("i", [n * 7919 - 10000000])
+    if k == 0:
+        continue
+    ra = demo_bytes.mix(src, p, k, oa, wa, aa)
+    rb = demo_bytes_fast.mix(src, p, k, ob, wb, ab)
+    if ra != rb or oa != ob or list(wa) != list(wb) or aa[0] != ab[0]:
+        bad += 1
+        if bad < 5:
+            print("mix", n, ra, rb, bytes(oa), bytes(ob), list(wa), list(wb), aa[0], ab[0])
+print("mismatches", bad)
+'''
+
+
 @pytest.fixture(scope="module")
 def demo_dir(tmp_path_factory):
     d = tmp_path_factory.mktemp("fastgen-demo")
@@ -434,6 +501,9 @@ def demo_dir(tmp_path_factory):
     (d / "demo_imported.py").write_text(DEMO_IMPORTED)
     (d / "demo_imported_fast.py").write_text(fastgen.generate_source(DEMO_IMPORTED, "demo_imported.py"))
     (d / "driver_imported.py").write_text(DRIVER_IMPORTED)
+    (d / "demo_bytes.py").write_text(DEMO_BYTES)
+    (d / "demo_bytes_fast.py").write_text(fastgen.generate_source(DEMO_BYTES, "demo_bytes.py"))
+    (d / "driver_bytes.py").write_text(DRIVER_BYTES)
     return d
 
 
@@ -464,6 +534,17 @@ def test_two_kernels_of_a_module_16_bit_arrays_chains_and_float_pairs_give_the_p
 @pytest.mark.parametrize("vm", ["64-bit", "32-bit"])
 def test_imported_intrinsics_and_another_modules_helper_give_the_pythons_bits(demo_dir, vm):
     _run(demo_dir, vm, "driver_imported.py")
+
+
+@pytest.mark.parametrize("vm", ["64-bit", "32-bit"])
+def test_byte_level_kernels_bytes_words_and_module_tables_give_the_pythons_results(demo_dir, vm):
+    _run(demo_dir, vm, "driver_bytes.py")
+
+
+def test_a_module_table_is_imported_from_the_kernels_module_and_read_through_a_pointer(demo_dir):
+    text = (demo_dir / "demo_bytes_fast.py").read_text()
+    assert "from demo_bytes import _TABLE, _WORDS" in text
+    assert "ptr8(_TABLE)" in text and "ptr16(_WORDS)" in text and "ptr8(_src_obj)" in text
 
 
 def _bodies(text):

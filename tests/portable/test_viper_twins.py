@@ -1,7 +1,8 @@
 """The viper accel twins give the same bytes and bits as their pure-Python twins.
 
-Portable: under MicroPython (tests/portable/mprun.py) each viper twin (accel/crsf.py,
-accel/dshot.py) must be the one its module chose, and is run side by side with the Python twin
+Portable: under MicroPython (tests/portable/mprun.py) each viper twin (accel/rxcodec.py and
+accel/crc.py, generated from protocols/rxcodec.py and crc.py by hoverfly.fastgen; accel/dshot.py)
+must be the one its module chose, and is run side by side with the Python twin
 on pseudo-random inputs (an LCG: the same sequence on every port) plus edge cases; every output
 must match. On CPython (pytest) there is no viper: the modules must have kept the Python twins,
 and those must still decode and encode.
@@ -14,10 +15,11 @@ from hoverfly.compat import IS_MICROPYTHON
 from hoverfly.protocols import crc, crsf, dshot, rxcodec
 
 if IS_MICROPYTHON:
-    from hoverfly.accel import crsf as crsf_viper
+    from hoverfly.accel import crc as crc_viper
     from hoverfly.accel import dshot as dshot_viper
+    from hoverfly.accel import rxcodec as rx_viper
 else:
-    crsf_viper = dshot_viper = None
+    crc_viper = rx_viper = dshot_viper = None
 
 
 class Lcg:
@@ -55,7 +57,7 @@ def _check_both(buf, p):
     ra, ua = _channels(0xAAAA), _channels(0x5555)
     rb, ub = _channels(0xAAAA), _channels(0x5555)
     got_py = rxcodec._check_unpack11_indexed(buf, p, ra, ua, crsf.US_OF_TICKS, crc.CRC8_DVB_S2_TABLE)
-    got_v = crsf_viper.check_unpack11(buf, p, rb, ub, crsf.US_OF_TICKS, crc.CRC8_DVB_S2_TABLE)
+    got_v = rx_viper.check_unpack11(buf, p, rb, ub, crsf.US_OF_TICKS, crc.CRC8_DVB_S2_TABLE)
     assert got_py == got_v, (bytes(buf), p)
     assert list(ra) == list(rb) and list(ua) == list(ub), (bytes(buf), p, list(ra), list(rb))
     return got_py
@@ -63,14 +65,16 @@ def _check_both(buf, p):
 
 def test_micropython_picks_the_viper_twins_and_cpython_the_python_ones():
     if IS_MICROPYTHON:
-        assert crsf._check_unpack11 is crsf_viper.check_unpack11
-        assert crsf._unpack11 is crsf_viper.unpack11
-        assert crsf._crc8 is crsf_viper.crc8_dvb_s2
+        assert rxcodec.check_unpack11 is rx_viper.check_unpack11
+        assert rxcodec.unpack11 is rx_viper.unpack11
+        assert crsf._check_unpack11 is rx_viper.check_unpack11
+        assert crsf._unpack11 is rx_viper.unpack11
+        assert crsf._crc8 is crc_viper.crc8_dvb_s2_span
         assert dshot.encode_planned_f32 is dshot_viper.encode_planned
     else:
-        assert crsf._check_unpack11 is rxcodec.check_unpack11
-        assert crsf._unpack11 is rxcodec.unpack11
-        assert crsf._crc8 is crc.crc8_dvb_s2
+        assert crsf._check_unpack11 is rxcodec.check_unpack11 is rxcodec._check_unpack11_struct
+        assert crsf._unpack11 is rxcodec.unpack11 is rxcodec._unpack11_struct
+        assert crsf._crc8 is crc.crc8_dvb_s2_span
         assert dshot.encode_planned_f32 is None
 
 
@@ -142,12 +146,14 @@ def test_crsf_unpack11_and_crc8_twins_agree():
         p = rnd.below(18)
         ra, ua, rb, ub = _channels(1), _channels(2), _channels(1), _channels(2)
         rxcodec._unpack11_indexed(buf, p, ra, ua, crsf.US_OF_TICKS)
-        crsf_viper.unpack11(buf, p, rb, ub, crsf.US_OF_TICKS)
+        rx_viper.unpack11(buf, p, rb, ub, crsf.US_OF_TICKS)
         assert list(ra) == list(rb) and list(ua) == list(ub), (bytes(buf), p)
         start = rnd.below(40)
         end = start + rnd.below(41 - start)
-        assert crsf_viper.crc8_dvb_s2(buf, start, end) == crc.crc8_dvb_s2(buf, start, end), (bytes(buf), start, end)
-    assert crsf_viper.crc8_dvb_s2(b"123456789", 0, 9) == 0xBC  # the CRC-8/DVB-S2 check value
+        want = crc.crc8_dvb_s2(buf, start, end)
+        assert crc.crc8_dvb_s2_span(buf, start, end) == want, (bytes(buf), start, end)
+        assert crc_viper.crc8_dvb_s2_span(buf, start, end) == want, (bytes(buf), start, end)
+    assert crc_viper.crc8_dvb_s2_span(b"123456789", 0, 9) == 0xBC  # the CRC-8/DVB-S2 check value
 
 
 # --------------------------------------------------------------------------------------- DShot

@@ -30,6 +30,17 @@ def crc8_dvb_s2(data, start=0, end=-1, crc=0):
     return crc
 
 
+# fastpass: crc8_dvb_s2_span data:B
+def crc8_dvb_s2_span(data, start, end):
+    """CRC-8/DVB-S2 of data[start:end] from 0, end given (>= start, within data): what a codec checks a frame
+    with. Its viper twin (accel/crc.py, generated from it) reads data without bounds checks."""
+    t = CRC8_DVB_S2_TABLE
+    crc = 0
+    for i in range(start, end):
+        crc = t[crc ^ data[i]]
+    return crc
+
+
 def crc8_dvb_s2_byte(crc, b):
     return CRC8_DVB_S2_TABLE[crc ^ b]
 

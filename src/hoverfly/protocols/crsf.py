@@ -24,8 +24,8 @@ The encoder is its exact inverse: it picks the tick that decodes back to the sam
 
 from array import array
 
-from hoverfly.compat import accel_module, const, ticks_diff
-from hoverfly.protocols.crc import CRC8_DVB_S2_TABLE, crc8_dvb_s2
+from hoverfly.compat import IS_MICROPYTHON, const, ticks_diff
+from hoverfly.protocols.crc import CRC8_DVB_S2_TABLE, crc8_dvb_s2, crc8_dvb_s2_span  # noqa: F401 (crsf.crc8_dvb_s2: the general CRC, for users)
 from hoverfly.protocols.rxcodec import (
     SerialRxDecoder,
     check_unpack11,
@@ -67,12 +67,18 @@ TYPE_NAMES = {
 
 _CRC = CRC8_DVB_S2_TABLE
 
-# The per-frame byte loops: viper twins on MicroPython (accel/crsf.py, ~10x faster on
-# the RC frame), the pure-Python twins everywhere else or if viper is missing; tested equal.
-_viper = accel_module("crsf")
-_check_unpack11 = _viper.check_unpack11 if _viper is not None else check_unpack11
-_unpack11 = _viper.unpack11 if _viper is not None else unpack11
-_crc8 = _viper.crc8_dvb_s2 if _viper is not None else crc8_dvb_s2
+# The per-frame byte loops: rxcodec's channel unpacking and crc.py's frame CRC, each on MicroPython the
+# viper generated from it (accel/rxcodec.py, accel/crc.py: about 10x faster on the RC frame), the Python
+# everywhere else or where viper is missing; tests/portable/test_viper_twins.py holds them equal. The CRC's
+# twin is chosen here, not in crc.py: it reads crc.py's table, so crc.py cannot import it while loading.
+_check_unpack11 = check_unpack11
+_unpack11 = unpack11
+_crc8 = crc8_dvb_s2_span
+if IS_MICROPYTHON:
+    try:
+        from hoverfly.accel.crc import crc8_dvb_s2_span as _crc8
+    except (ImportError, SyntaxError, NameError, ValueError, TypeError):  # TypeError: ViperTypeError
+        pass
 
 
 def _sync_table():

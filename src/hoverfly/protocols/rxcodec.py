@@ -200,11 +200,18 @@ class SerialRxDecoder:
 #   mismatch (nothing written) or 1 after unpacking. This is CRSF's whole RC frame check.
 #
 # Two twins each, tested equal (tests/test_rx_fuzz.py). The indexed twins read each byte
-# once into locals and allocate nothing: MicroPython's. The struct twins fetch the bytes with
-# one unpack_from and store with pack_into: on CPython that is ~1 µs of a ~5 µs frame, but
-# the tuple would allocate on MicroPython.
+# once into locals and allocate nothing: MicroPython's, and the source hoverfly.fastgen generates
+# their viper from (accel/rxcodec.py, docs/fastpass.md; tests/portable/test_viper_twins.py holds
+# them equal), which MicroPython runs where it loads. The struct twins fetch the bytes with one
+# unpack_from and store with pack_into: on CPython that is ~1 µs of a ~5 µs frame, but the tuple
+# would allocate on MicroPython.
+#
+# Viper reads raw memory without bounds checks: src must hold the whole frame (the framers call
+# only with complete frames), raw/us/us_of_raw are array('H') (us_of_raw 2048 long) and crc_table
+# 256 bytes. Every intermediate is a byte, an 11-bit value or an index: far from 2**31.
 
 
+# fastpass: unpack11 src:B raw:H us:H us_of_raw:H
 def _unpack11_indexed(src, p, raw, us, us_of_raw):
     c = 0
     while c < 16:
@@ -247,6 +254,7 @@ def _unpack11_indexed(src, p, raw, us, us_of_raw):
         p += 11
 
 
+# fastpass: check_unpack11 src:B raw:H us:H us_of_raw:H crc_table:B
 def _check_unpack11_indexed(src, p, raw, us, us_of_raw, crc_table):
     t = crc_table
     c = t[src[p]]
@@ -441,6 +449,13 @@ def _unpack11_struct(src, p, raw, us, us_of_raw):
 if IS_MICROPYTHON:
     unpack11 = _unpack11_indexed
     check_unpack11 = _check_unpack11_indexed
+    try:  # generated from the indexed twins; absent, or a port without viper: they run as Python
+        from hoverfly.accel import rxcodec as _viper
+
+        unpack11 = _viper.unpack11
+        check_unpack11 = _viper.check_unpack11
+    except (ImportError, SyntaxError, NameError, ValueError, TypeError):  # TypeError: ViperTypeError
+        pass
 else:
     unpack11 = _unpack11_struct
     check_unpack11 = _check_unpack11_struct
