@@ -312,6 +312,9 @@ def test_the_motor_test_needs_the_props_off_confirmation_and_stops_on_its_dead_m
         page = _page(browser, g.url)
         page.click("#nav-motors")
         slider = page.locator("#motor-slider-1")
+        # the sliders end at the controller's cap, and the page says whose cap it is
+        expect(page.locator("#motor-cap")).to_contain_text("30 % by the controller's motor_test_pct", timeout=5000)
+        expect(slider).to_have_attribute("max", "30")
         expect(slider).to_be_disabled()
         page.check("#motor-props-removed")
         expect(slider).to_be_enabled()

@@ -19,6 +19,7 @@ export function initMotors(ctx) {
   let refreshQueued = false;
   let held = null;            // the slider under the pointer
   let chain = Promise.resolve();
+  let capPct = 100;           // the controller's motor_test_pct: a slider above it would promise what never runs
 
   // One request at a time, in order: a refresh still in flight can never land after the stop
   // that was meant to end it.
@@ -48,7 +49,7 @@ export function initMotors(ctx) {
       const s = document.createElement("input");
       s.type = "range";
       s.min = "0";
-      s.max = "100";
+      s.max = String(capPct);
       s.step = "1";
       s.value = "0";
       s.id = `motor-slider-${i + 1}`;
@@ -75,6 +76,29 @@ export function initMotors(ctx) {
     }
     box.replaceChildren(...out);
     gate();
+  }
+
+  // The controller caps every test output at motor_test_pct (core/command/motortest.py): the sliders
+  // end there and the page says why, instead of a slider at 80 % that runs the motor at 30 %.
+  async function readCap() {
+    let rows;
+    try {
+      rows = await api("GET", "/api/params", undefined, { quiet: true });
+    } catch (e) {
+      return;
+    }
+    const row = rows.find((r) => r.name === "motor_test_pct");
+    const el = $("motor-cap");
+    if (!row || typeof row.value !== "number") {
+      el.textContent = "The controller caps test outputs at motor_test_pct (not readable over this link).";
+      return;
+    }
+    capPct = Math.max(0, Math.min(100, Math.floor(row.value)));
+    el.textContent = `Capped at ${capPct} % by the controller's motor_test_pct (Parameters screen).`;
+    for (const s of sliders) {
+      if (Number(s.value) > capPct) s.value = String(capPct);
+      s.max = String(capPct);
+    }
   }
 
   function release(s) {
@@ -207,6 +231,7 @@ export function initMotors(ctx) {
 
   // SAFETY: leaving the screen or the page stops the test (the dead-man's other half).
   ctx.onScreen(({ from, to }) => {
+    if (to === "motors" && from !== "motors" && !running) readCap();
     if (from === "motors" && to !== "motors") {
       if (running) stopNow();
       $("motor-props-removed").checked = false;
