@@ -25,6 +25,7 @@ PACKAGE = pathlib.Path(__file__).resolve().parent
 # the generated module (hoverfly/accel/<name>.py) -> the stage module it is generated from
 STAGES = {
     "imufilter": "hoverfly.core.fastpass.fixedimu",
+    "rpmfilter": "hoverfly.core.fastpass.fixedrpm",
     "rate": "hoverfly.core.fastpass.fixedrate",
     "att": "hoverfly.core.fastpass.fixedatt",
     "sched": "hoverfly.core.scheduler",
