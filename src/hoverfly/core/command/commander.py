@@ -12,19 +12,30 @@ summary up to date:
 - SOURCE_AUTOPILOT: this commander, after each autopilot call that can enable or silence it, or hold or
   release its throttle latch (`pilot_frame`, `task`, `update`): in a flight nothing else drives the
   autopilot's procedure (`Flight.on_msp_rc` takes its frames, which never change either).
-The failsafe outranks the autopilot. The fourth source, the bench motor test, owns the motor outputs
+- SOURCE_LAUNCH: a plane's hand launch (core/command/launch.py), from the arming to the pilot's sticks or
+  its timeout; the commander's `task` follows it.
+The failsafe outranks the launch and the autopilot. The fourth source, the bench motor test, owns the motor outputs
 rather than the set point (disarmed only): Flight._outputs gives it its word after the mixer, and
 `flier()` names it for the MSP status.
+
+A plane (`is_plane(mixer_type)`) has a MANUAL mode besides ANGLE, HORIZON and ACRO: its switch
+(`manual_ch` range) outranks the others, read once per frame (`pilot_frame`). While the failsafe glides
+or a launch climbs, the plane's controller holds a pitch of their choosing (`FwController.pitch_offset_rad`,
+set here at each change of who flies, never in the pass).
 """
 
 from hoverfly.compat import const
 from hoverfly.core.command.autopilot import AP_ENABLED
+from hoverfly.core.command.launch import LAUNCH_OFF, sticks_moved
 from hoverfly.core.events import EV_AIRMODE, EV_MODE
 from hoverfly.core.safety.failsafe import PROC_DROP, PROC_GLIDE, PROC_LAND, STAGE2
-from hoverfly.core.stages.control import MODE_ANGLE
+from hoverfly.core.stages.control import MODE_ANGLE, MODE_MANUAL
+from hoverfly.core.stages.mixer import is_plane
+from hoverfly.core.stages.rc import aux_channel
 
 SOURCE_FAILSAFE = const(1)  # the failsafe flies (stage 1 or 2)
 SOURCE_AUTOPILOT = const(2)  # the autopilot is enabled, or holds the pilot's throttle at its latch
+SOURCE_LAUNCH = const(4)  # a plane's hand launch: from arming until the pilot's sticks or its timeout
 
 # flier(): who flies, as MSP2_HOVERFLY_AUTOPILOT reports it (protocols/msp.py FLIER_NAMES)
 FLIER_NOBODY = const(0)
@@ -50,6 +61,25 @@ class Commander:
         self.airmode_enabled = True  # the airmode parameter, or the AIRMODE switch when airmode_ch is set
         self.throttle_was_up = False  # the throttle has been raised past airmode_thr_pct since arming
         self._airmode_thr = 0.25
+        # a plane's parts (Flight.plane_parts): its controller, the launch, and what the launch reads
+        self.plane = False
+        self.fw = None
+        self.launch = None
+        self._attitude = None
+        self._accel_m_s2 = None
+        self._channels_us = None
+        self._manual = (0, 1700, 2100)  # the MANUAL switch: channel (1-based, 0 = none), range
+        self._glide_pitch_rad = 0.0
+        self._was_armed = False
+
+    def plane_parts(self, fw, launch, attitude, accel_m_s2, channels_us):
+        """A plane's controller (its pitch target) and hand launch, the attitude and filtered accelerometer
+        the launch reads, and the pilot's frame the MANUAL switch is read from (Flight wires them once)."""
+        self._channels_us = channels_us
+        self.fw = fw
+        self.launch = launch
+        self._attitude = attitude
+        self._accel_m_s2 = accel_m_s2
 
     def configure(self, params, airmode_param):
         """airmode_param: the mixer's airmode setting, what air mode follows with no AIRMODE channel set."""
@@ -58,6 +88,16 @@ class Commander:
         rc = self.rc
         # With no AIRMODE channel only this changes airmode_enabled; with one, each frame does (pilot_frame).
         self.airmode_enabled = rc.airmode_switch if rc.airmode_box else airmode_param
+        self.plane = is_plane(params.get("mixer_type"))
+        self._glide_pitch_rad = params.get("fs_glide_pitch") * 0.017453292519943295
+        ch = aux_channel(rc.map_ch, params.get("manual_ch"))  # AUX1..4 where rc_map puts them
+        on = self.plane and self._channels_us is not None
+        self._manual = (ch if on else 0, params.get("manual_min_us"), params.get("manual_max_us"))
+        if self.launch is not None:
+            self.launch.configure(params, self.plane)
+            if not self.launch.active():
+                self.source &= ~SOURCE_LAUNCH
+        self._fw_pitch()
 
     # ------------------------------------------------------------------ the pass
     def update(self, sp, now_us):
@@ -77,8 +117,10 @@ class Commander:
     def _other(self, sp, now_us):
         """update() when the pilot's sticks are not all: the failsafe's set point, or the autopilot's."""
         if self.source & SOURCE_FAILSAFE:
-            # SAFETY: the failsafe outranks the pilot's stale sticks and the autopilot.
+            # SAFETY: the failsafe outranks the pilot's stale sticks, a launch and the autopilot.
             return self._failsafe_setpoint(sp)
+        if self.source & SOURCE_LAUNCH:
+            return self._launch_setpoint(sp)
         rc = self.rc
         if self.autopilot.apply(now_us, sp, rc.stick_raw, rc.throttle_raw):
             rc.fill_setpoint(sp)
@@ -98,6 +140,16 @@ class Commander:
                 sp.throttle_norm = fs.land_throttle_norm
                 if fs.procedure == PROC_LAND:
                     fs.note_accel(self._accel_raw_m_s2)  # every pass: a 1 ms spike counts
+        self.rc.fill_setpoint(sp)
+        return MODE_ANGLE
+
+    def _launch_setpoint(self, sp):
+        """A hand launch's set point: wings level at the climb pitch (the controller's pitch target), the
+        launch's throttle: idle until the motor starts."""
+        sp.stick_norm[0] = 0.0
+        sp.stick_norm[1] = 0.0
+        sp.stick_norm[2] = 0.0
+        sp.throttle_norm = self.launch.throttle_norm()
         self.rc.fill_setpoint(sp)
         return MODE_ANGLE
 
@@ -131,6 +183,11 @@ class Commander:
             self._autopilot_claim()
         if rc.airmode_box:
             self.airmode_enabled = rc.airmode_switch
+        ch, lo, hi = self._manual
+        if ch:
+            channels = self._channels_us
+            if ch <= len(channels) and lo <= channels[ch - 1] < hi:
+                rc.mode = MODE_MANUAL  # a plane's MANUAL switch outranks ANGLE and HORIZON (INAV's priority)
 
     def task(self, now_us, armed, yaw_rad):
         """100 Hz, after the supervisor's checks: a silent autopilot loses its privilege; the heading hold's
@@ -142,6 +199,41 @@ class Commander:
         rc = self.rc
         if rc.yaw_hold:
             rc.hold_heading(armed, yaw_rad)
+        launch = self.launch
+        if launch is not None and (armed != self._was_armed or launch.state != LAUNCH_OFF):
+            self._launch_task(now_us, armed)
+
+    def _launch_task(self, now_us, armed):
+        """A plane's hand launch at 100 Hz: it starts at arming (fw_autolaunch), follows the throw, and hands the
+        set point back to the pilot at its end."""
+        launch = self.launch
+        if armed and not self._was_armed:
+            launch.arm(now_us)
+        self._was_armed = armed
+        if launch.state != LAUNCH_OFF:
+            rc = self.rc
+            launch.update(now_us, armed, self._accel_m_s2, self._attitude.cos_tilt, rc.throttle_low(),
+                          sticks_moved(rc.stick_raw))
+        if launch.state != LAUNCH_OFF:
+            self.source |= SOURCE_LAUNCH
+        else:
+            self.source &= ~SOURCE_LAUNCH
+        self._fw_pitch()
+
+    def _fw_pitch(self):
+        """The plane controller's pitch target in ANGLE: the glide's in failsafe stage 2, the climb's while a
+        launch runs, else none (level)."""
+        fw = self.fw
+        if fw is None:
+            return
+        fs = self.failsafe
+        if self.source & SOURCE_FAILSAFE:
+            glide = fs.state == STAGE2 and fs.procedure == PROC_GLIDE
+            fw.pitch_offset_rad = self._glide_pitch_rad if glide else 0.0
+        elif self.source & SOURCE_LAUNCH:
+            fw.pitch_offset_rad = self.launch.climb_rad
+        else:
+            fw.pitch_offset_rad = 0.0
 
     # ------------------------------------------------------------- who flies
     def failsafe_flies(self, flying):
@@ -151,6 +243,7 @@ class Commander:
             self.source |= SOURCE_FAILSAFE
         else:
             self.source &= ~SOURCE_FAILSAFE
+        self._fw_pitch()
 
     def _autopilot_claim(self):
         """The autopilot's bit of `source`, from its state after a call that can change it."""

@@ -10,7 +10,12 @@ the last valid frame (default 500 ms, seed 002's RC failsafe); stage 2 runs `fs_
   the hover throttle learnt while flying; `fs_throttle` until one is known), disarm on
   touchdown (an acceleration spike, latched every pass so a 1 ms spike is not missed) or
   after `fs_land_max_ms`;
-- glide (fixed wing, seed 002's stabilised glide): level, throttle off.
+- glide (a plane, seed 002's stabilised glide): wings level at `fs_glide_pitch` (a few degrees nose
+  down: the trainer and the wing glide near their best glide speed there, well above the stall), motor
+  off, in ANGLE with the integrator on, to the ground and on it: the plane stays armed until the pilot
+  disarms (INAV's glide). Only a plane glides: a multirotor with `fs_procedure` glide lands instead (the
+  parameter check refuses glide on a multirotor; an old stored value still lands it), and a plane set to
+  land glides (it cannot hover down).
 A link that comes back ends stage 1 at once but not stage 2: the pilot must disarm, or move
 the sticks out of centre, to take over (as Betaflight).
 The failsafe switch (Betaflight's FAILSAFE box, `fs_switch_mode`) runs the same stages:
@@ -35,6 +40,7 @@ from hoverfly.core.events import (
     EV_FAILSAFE_STAGE2,
     EV_LANDED,
 )
+from hoverfly.core.stages.mixer import is_plane
 
 IDLE = const(0)
 STAGE1 = const(1)
@@ -114,6 +120,11 @@ class Failsafe:
 
     def configure(self, params):
         self.procedure = PROCEDURES.index(params.get("fs_procedure"))
+        plane = is_plane(params.get("mixer_type"))
+        if self.procedure == PROC_GLIDE and not plane:
+            self.procedure = PROC_LAND  # SAFETY: a multirotor cannot glide: a level drop would crash it
+        elif self.procedure == PROC_LAND and plane:
+            self.procedure = PROC_GLIDE  # SAFETY: a plane cannot hover down: its landing is the glide
         self.rx_timeout_us = params.get("rx_timeout_ms") * 1000
         self.delay_us = params.get("fs_delay_ms") * 1000
         self.land_max_us = params.get("fs_land_max_ms") * 1000
