@@ -21,6 +21,7 @@ from hoverfly.core.fastpass.fixedatt import FixedAttitude
 from hoverfly.core.fastpass.fixedimu import HAS_ACCEL as _FIXED_IMU_ACCEL
 from hoverfly.core.fastpass.fixedimu import FixedImuFilter
 from hoverfly.core.fastpass.fixedrate import FixedRate
+from hoverfly.core.fastpass.fixedrpm import FixedRpmFilter
 from hoverfly.core.log.logger import Logger
 from hoverfly.core.safety.arming import Arming
 from hoverfly.core.safety.bit import BuiltInTest
@@ -72,6 +73,8 @@ class Flight:
         self._fixed_att_on = False
         self.rpm_filter = RpmFilter(self.events)  # notches at the motors' frequencies (bidirectional DShot)
         self._rpm_on = False
+        self.fixed_rpm = FixedRpmFilter()  # the same in fixed point, with the fixed IMU filters
+        self._rpm_fixed = False
         self.output = OutputStage()
         self.arming = Arming(self.events)
         self.motor_test = MotorTest(self.arming)
@@ -172,6 +175,7 @@ class Flight:
         self._out_more = self.mixer.servo_yaw or self.output.bidir  # _outputs: a servo, or ESC replies
         self.rpm_filter.configure(p, hz, self.motor_count, self.output.bidir)
         self._rpm_on = self.rpm_filter.active
+        self._rpm_fixed = self.fixed_rpm.configure(self.rpm_filter, self.signals, self._fixed_imu_on)
         self._rx_timeout_us = p.get("rx_timeout_ms") * 1000
         self._route()
         self._configured_at = p.changed
@@ -257,7 +261,10 @@ class Flight:
                 self.gyro_filter.update(s.gyro_raw_rad_s, self.calibration.bias_rad_s, s.gyro_rad_s)
                 self.accel_filter.update(s.accel_raw_m_s2, s.accel_m_s2)
             if self._rpm_on:  # the motors' notches, on the previous pass's RPM (the replies come after the outputs)
-                self.rpm_filter.update(s.gyro_rad_s, s.motor_rpm, now_us)
+                if self._rpm_fixed:
+                    self.fixed_rpm.update(now_us)
+                else:
+                    self.rpm_filter.update(s.gyro_rad_s, s.motor_rpm, now_us)
         elif self.logger.active:  # no new sample: the log's integral_dt says so (Logger.update's full path)
             self.logger.full_pass_next()
         if self._att_fixed_now:  # the gyro average and the update every _att_every passes, as _estimate
@@ -364,7 +371,7 @@ class Flight:
             s = self.signals
             output.decode_replies(n, s.motor_erpm, s.motor_rpm)
             if self._rpm_on:
-                self.rpm_filter.telemetry(output.decoders, n)
+                (self.fixed_rpm if self._rpm_fixed else self.rpm_filter).telemetry(output.decoders, n)
 
     def _dt_s(self, dt_us):
         """The pass's dt in seconds, for the float stages (a float: the fixed-point pass takes dt_us)."""

@@ -33,6 +33,7 @@ RPM_LOST_MS = const(20)  # 20 replies missed in a row at 1 kHz: a glitch is shor
 # A weight moves at most this much per update of its motor: a notch fades in or out over about ten
 # updates (40 ms on a quad at 1 kHz), so losing telemetry is not a step in the gyro.
 WEIGHT_STEP = 0.1
+PASS_MASK = const(0x3FFFFFFF)  # the pass count wraps here: a small int on every VM
 MAX_HZ_OF_LOOP = 0.48  # Betaflight's: a notch stays below this fraction of the sample rate
 
 _TWO_PI = 2.0 * math.pi
@@ -134,7 +135,7 @@ class RpmFilter:
 
     def _motor(self, m, rpm_m, now_us):
         """Motor m's notches from its RPM: centre, weight (toward its target, a step at most), coefficients."""
-        lost = self.passes - self.last_ok[m] > self.lost_passes
+        lost = (self.passes - self.last_ok[m]) & PASS_MASK > self.lost_passes
         bit = 1 << m
         if lost != bool(self.lost & bit):
             self.lost ^= bit
@@ -177,8 +178,7 @@ class RpmFilter:
 
     def update(self, gyro, rpm, now_us):
         """One pass: one motor's notches recomputed, then every notch on each axis of `gyro` (in place)."""
-        p = self.passes + 1
-        self.passes = p
+        self.passes = (self.passes + 1) & PASS_MASK
         m = self.next_motor
         self._motor(m, rpm[m], now_us)
         m += 1
