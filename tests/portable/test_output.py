@@ -187,16 +187,20 @@ def test_pwm_rate_outside_the_protocol_is_clamped_and_explained():
     assert enc.rate_hz == 490 and "490" in enc.error
 
 
-def test_servo_widths_and_bad_servo_settings():
-    enc = _encoder(servos=1, servo_min_us=1100, servo_mid_us=1500, servo_max_us=1700)
-    enc.write_servos(array("f", [1.0]), 1, T0)
-    assert abs(enc.servo_us[0] - 1700) < 1e-3
-    enc.write_servos(array("f", [-0.5]), 1, T0)
-    assert abs(enc.servo_us[0] - 1300) < 1e-3
-    enc.write_servos(array("f", [-7.0]), 1, T0)
-    assert abs(enc.servo_us[0] - 1100) < 1e-3 and enc.clamped == 1
-    bad = _encoder(servos=1, servo_min_us=1600, servo_mid_us=1500)
-    assert "servo" in bad.error and bad.servo_mid_us == 1500.0 and bad.servo_min_us == 1000.0
+def test_servo_widths_pass_through_clamped_to_what_a_servo_takes_and_bad_end_points_are_named():
+    enc = _encoder(servos=2)
+    enc.write_servos(array("H", [1700, 1250]), 2, T0)
+    assert list(enc.servo_us[:2]) == [1700, 1250] and enc.clamped == 0
+    enc.write_servos(array("H", [3000, 100]), 2, T0)
+    assert list(enc.servo_us[:2]) == [2500, 500] and enc.clamped == 2
+    bad = _encoder(servos=1, servo0_min_us=1600, servo0_mid_us=1500)
+    assert "servo 0" in bad.error
+    assert bad.servo_mid[0] == 1500  # the failsafe width stays the servo's own mid
+
+
+def test_each_servo_line_disarms_to_its_own_mid():
+    enc = _encoder(servos=2, servo0_mid_us=1450, servo1_mid_us=1560)
+    assert list(enc.servo_us[:2]) == [1450, 1560]
 
 
 # ------------------------------------------------------------------ DShot boot commands
@@ -251,13 +255,13 @@ def test_dshot_command_outside_1_to_47_is_refused():
 def test_output_failsafe_disarms_every_output_after_100_ms_without_a_command():
     enc = _encoder(servos=1, motor_protocol="pwm")
     enc.write(array("f", [0.6, 0.6, 0.6, 0.6]), 4, T0)
-    enc.write_servos(array("f", [0.8]), 1, T0)
+    enc.write_servos(array("H", [1900]), 1, T0)
     assert not enc.tick(ticks_add(T0, 100000))  # exactly 100 ms: still fresh
-    assert abs(enc.pulse_us[0] - 1600) < 1e-3
+    assert abs(enc.pulse_us[0] - 1600) < 1e-3 and enc.servo_us[0] == 1900
     assert enc.tick(ticks_add(T0, 101000))
     assert enc.failsafe and enc.failsafe_trips == 1
     assert list(enc.pulse_us[:4]) == [1000.0] * 4
-    assert enc.servo_us[0] == 1500.0
+    assert enc.servo_us[0] == 1500
     # a fresh command brings the outputs back
     enc.write(array("f", [0.3, 0.3, 0.3, 0.3]), 4, ticks_add(T0, 150000))
     assert not enc.failsafe and not enc.tick(ticks_add(T0, 151000))

@@ -59,8 +59,9 @@ class Board:
         arrived since the last call; False (codes untouched) otherwise or without bidir."""
         return False
 
-    def write_servos(self, servo_norm, count):
-        """Servo positions in -1..1."""
+    def write_servos(self, servo_us, count):
+        """Servo pulse widths in µs, servo_us[0..count-1] (the servo mixer's, core/stages/servos.py); the
+        codec's output failsafe puts each at its servoN_mid_us when they stop coming."""
 
     def read_battery(self, signals):
         """Set signals.battery_v and signals.current_a (0 when not measured)."""

@@ -38,6 +38,7 @@ from hoverfly.core.stages.output import HAS_ACCEL as _FIXED_OUT_ACCEL
 from hoverfly.core.stages.output import OutputStage
 from hoverfly.core.stages.rc import RcInput
 from hoverfly.core.stages.receiver import Receiver
+from hoverfly.core.stages.servos import ServoMixer
 from hoverfly.core.stages.rpmfilter import RpmFilter
 
 # With no log running, the fixed controller writes its PID terms and torques out every this many passes
@@ -76,6 +77,7 @@ class Flight:
         self.fixed_rpm = FixedRpmFilter()  # the same in fixed point, with the fixed IMU filters
         self._rpm_fixed = False
         self.output = OutputStage()
+        self.servos = ServoMixer()  # a plane's surfaces (smix rules), read by _outputs
         self.arming = Arming(self.events)
         self.motor_test = MotorTest(self.arming)
         self.failsafe = Failsafe(self.events)
@@ -168,11 +170,12 @@ class Flight:
         self.logger.configure(p)
         self.idle = p.get("motor_idle_pct") * 0.01
         self.motor_max = p.get("motor_max_pct") * 0.01
-        servo_count = 1 if self.mixer.servo_yaw else 0
+        self.servos.configure(p)
+        servo_count = self.servos.count if self.servos.count else (1 if self.mixer.servo_yaw else 0)
         self.output.configure(p, self.motor_count)
         self.motor_test.configure(p, self.motor_count)
         self.board.configure_outputs(p, self.motor_count, servo_count)
-        self._out_more = self.mixer.servo_yaw or self.output.bidir  # _outputs: a servo, or ESC replies
+        self._out_more = self.mixer.servo_yaw or self.servos.count > 0 or self.output.bidir  # servos, ESC replies
         self.rpm_filter.configure(p, hz, self.motor_count, self.output.bidir)
         self._rpm_on = self.rpm_filter.active
         self._rpm_fixed = self.fixed_rpm.configure(self.rpm_filter, self.signals, self._fixed_imu_on)
@@ -344,11 +347,17 @@ class Flight:
             self._servo_and_telemetry(armed)
 
     def _servo_and_telemetry(self, armed):
-        """_outputs' rarer part: the yaw servo (tricopter, seed 002's plane), the ESCs' DShot replies."""
+        """_outputs' rarer part: a plane's servo mix (or a tricopter's tail), the ESCs' DShot replies."""
         s = self.signals
-        if self.mixer.servo_yaw:
+        n = self.servos.count
+        if n:  # smix rules: surfaces at their mid while disarmed (core/stages/servos.py)
+            self.servos.update(s.torque_norm, self._sp.throttle_norm, s.rc_channels_us, self.pass_dt_us, armed,
+                               s.servo_us)
+            self.board.write_servos(s.servo_us, n)
+        elif self.mixer.servo_yaw:
             self.output.servos(self.mixer.servo_norm, 1, armed, s.servo_norm)
-            self.board.write_servos(s.servo_norm, 1)
+            self.servos.from_norm(s.servo_norm, 1, s.servo_us)
+            self.board.write_servos(s.servo_us, 1)
         if self.output.bidir:
             self._motor_telemetry()
 

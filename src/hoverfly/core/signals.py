@@ -10,6 +10,7 @@ from hoverfly.core.log.logframe import PassRecord
 from hoverfly.core.stages.control import MODE_ANGLE
 from hoverfly.core.stages.estimator import Attitude
 from hoverfly.core.stages.mixer import MAX_MOTORS
+from hoverfly.core.stages.servos import MAX_SERVOS
 
 
 class Setpoint:
@@ -53,7 +54,8 @@ class Signals:
         self.motor_out = f("motor_out", [0.0] * MAX_MOTORS)  # to the ESC: 0 = stop, idle..1 when armed
         self.motor_erpm = array("i", [0] * MAX_MOTORS)  # bidirectional DShot replies, 0 = stopped
         self.motor_rpm = array("i", [0] * MAX_MOTORS)  # mechanical: eRPM / (motor_poles / 2)
-        self.servo_norm = array("f", [0.0, 0.0, 0.0, 0.0])  # -1..1
+        self.servo_norm = array("f", [0.0, 0.0, 0.0, 0.0])  # -1..1: a tricopter's tail from the motor mixer
+        self.servo_us = array("H", [1500] * MAX_SERVOS)  # the servo mixer's pulse widths (core/stages/servos.py)
         # power
         self.battery_v = 0.0
         self.current_a = 0.0

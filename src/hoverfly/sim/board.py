@@ -95,8 +95,11 @@ class SimBoard(SampledBoard):
         self.motor_writes += 1
         self._send_lines()
 
-    def write_servos(self, servo_norm, count):
-        self.output.write_servos(servo_norm, count, self.now_us())
+    def write_servos(self, servo_us, count):
+        out = self.output
+        out.write_servos(servo_us, count, self.now_us())
+        for i in range(out.servo_count):  # the servos read their new pulse now, not at the next motor write
+            self.servo_cmd[i] = self.servos[i].receive_pulse_us(out.servo_us[i])
 
     def output_tick(self):
         """The board's output timer, run every simulated loop period whatever the flight core does:

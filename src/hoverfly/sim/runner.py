@@ -146,10 +146,6 @@ class SimRun:
         self.airframe = load_airframe(airframe) if isinstance(airframe, str) else airframe
         self.scenario = load_scenario(scenario) if isinstance(scenario, str) else scenario
         self.seed = seed
-        if self.airframe.get("kind") == "plane" and self.airframe["frame"] not in MIXER_TABLES:
-            raise UserError("airframe %s is a plane (mixer_type %s): the fixed-wing flight core is not built yet "
-                            "(issue 23); its physics is in sim/plane.py"
-                            % (self.airframe["name"], self.airframe["frame"]))
         if self.airframe.get("kind") != "plane" and (self.scenario.get("start")
                                                      or any("throw" in e for e in self.scenario["events"])):
             raise UserError("scenario %s is flown by a plane (a hand launch or a start in flight): "

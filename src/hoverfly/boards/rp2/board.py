@@ -180,8 +180,7 @@ class Rp2Board(Board):
         self._dshot = None
         self._pwms = []
         self._stop_ns = 0  # the protocol's disarmed pulse, precomputed: the timer allocates nothing
-        self._servos = []
-        self._servo_mid_ns = 1500000
+        self._servos = []  # machine.PWM per servo line (pins.SERVOS), at servo_pwm_rate
         self._zeros = array("f", [0.0] * len(P.MOTORS))
         self._timer = None
         self.timer_ticks = 0
@@ -483,12 +482,11 @@ class Rp2Board(Board):
                     for line in range(n):
                         self._pwms.append(machine.PWM(machine.Pin(P.MOTORS[line]), freq=enc.rate_hz,
                                                       duty_ns=int(enc.min_us * 1000.0)))
-                if enc.servo_count:
-                    self._servos.append(machine.PWM(machine.Pin(P.SERVO), freq=enc.servo_rate_hz,
-                                                    duty_ns=int(enc.servo_mid_us * 1000.0)))
+                for i in range(enc.servo_count if enc.servo_count < len(P.SERVOS) else len(P.SERVOS)):
+                    self._servos.append(machine.PWM(machine.Pin(P.SERVOS[i]), freq=enc.servo_rate_hz,
+                                                    duty_ns=enc.servo_mid[i] * 1000))
                 self._output_key = key
             self._stop_ns = int(enc.min_us * 1000.0)
-            self._servo_mid_ns = int(enc.servo_mid_us * 1000.0)
             self._send_lines()
             self._start_timer()
         except (OSError, ValueError, RuntimeError) as exc:
@@ -501,6 +499,8 @@ class Rp2Board(Board):
         else:
             self.faults &= ~FAULT_OUTPUT
         where = "GP" + ",GP".join([str(p) for p in P.MOTORS[:n]])
+        if self._servos:
+            where += ", servos GP" + ",GP".join([str(p) for p in P.SERVOS[:len(self._servos)]])
         self.output_status = "%s on %s%s" % (enc.protocol, where, ("; " + "; ".join(notes)) if notes else "")
         return self.faults & FAULT_OUTPUT == 0
 
@@ -535,9 +535,10 @@ class Rp2Board(Board):
             ns = self._stop_ns
             for p in self._pwms:
                 p.duty_ns(ns)
-        ns = self._servo_mid_ns
-        for p in self._servos:
-            p.duty_ns(ns)
+        mid = self.output.servo_mid  # ints: the timer allocates nothing
+        servos = self._servos
+        for i in range(len(servos)):
+            servos[i].duty_ns(mid[i] * 1000)
 
     def _send_lines(self):
         """Every line's current value from the codec onto its state machine / PWM slice."""
@@ -566,12 +567,13 @@ class Rp2Board(Board):
         self.output.write(self._zeros, self.output.motor_count, self._ticks_us())
         self._send_lines()
 
-    def write_servos(self, servo_norm, count):
+    def write_servos(self, servo_us, count):
         enc = self.output
-        enc.write_servos(servo_norm, count, self._ticks_us())
+        enc.write_servos(servo_us, count, self._ticks_us())
+        widths = enc.servo_us
         servos = self._servos
         for i in range(len(servos) if len(servos) < MAX_SERVOS else MAX_SERVOS):
-            servos[i].duty_ns(int(enc.servo_us[i] * 1000.0))
+            servos[i].duty_ns(widths[i] * 1000)
 
     def read_motor_telemetry(self, codes, count):
         """Bidirectional DShot replies, motor order: the PIO side keeps them per line.

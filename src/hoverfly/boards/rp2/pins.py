@@ -6,7 +6,7 @@ serve it: I2C0 on GP4/GP5 and SPI0 on GP16-19 (their default pads), UART1 for th
 receiver (GP8 TX, GP9 RX), UART0 for the HC-05 Bluetooth link (GP0 TX, GP1 RX, seed 001),
 four motor lines on GP10-GP13 (one PIO state machine each for DShot, or PWM slices
 5A/5B/6A/6B for PWM/OneShot), receiver PWM/PPM inputs on GP2, GP3, GP6, GP7, GP14, GP15
-(FS-IA6 channels 1-6, seed 001; PPM on the first), a tail servo on GP22, battery
+(FS-IA6 channels 1-6, seed 001; PPM on the first), servos 0-3 on GP22, GP20, GP21, GP28, battery
 voltage/current on ADC0/ADC1 (GP26/GP27) and the on-board LED on GP25.
 """
 
@@ -45,7 +45,12 @@ MOTORS = (10, 11, 12, 13)
 # PWM / PPM receiver inputs: channels 1..6 (PPM uses the first pin only).
 RX_PWM = (2, 3, 6, 7, 14, 15)
 
-SERVO = 22  # tricopter tail / fixed-wing surface
+# Servo outputs 0..3 (a tricopter's tail is servo 0; a plane's surfaces by its smix rules), PWM at
+# servo_pwm_rate. GP22 is slice 3A, GP20/GP21 slice 2 (both servos: one rate), GP28 slice 6A, which it
+# shares with motor 3 (GP12): a plane has one motor, and a multirotor with a PWM motor 3 drives at most
+# the tail servo, so the two never meet.
+SERVOS = (22, 20, 21, 28)
+SERVO = SERVOS[0]
 
 ADC_BATTERY = 26  # ADC0 through a divider
 ADC_CURRENT = 27  # ADC1 from a current sensor
@@ -60,7 +65,8 @@ def describe():
         % (I2C_ID, I2C_SDA, I2C_SCL, SPI_ID, SPI_SCK, SPI_MOSI, SPI_MISO, SPI_CS),
         "receiver uart%d rx=GP%d tx=GP%d | pwm/ppm GP%s" % (RX_UART_ID, RX_RX, RX_TX,
                                                            ",GP".join([str(p) for p in RX_PWM])),
-        "motors GP%s | servo GP%d | led GP%d" % (",GP".join([str(p) for p in MOTORS]), SERVO, LED),
+        "motors GP%s | servos GP%s | led GP%d" % (",GP".join([str(p) for p in MOTORS]),
+                                                 ",GP".join([str(p) for p in SERVOS]), LED),
         "hc-05 uart%d rx=GP%d tx=GP%d | battery adc GP%d, current GP%d"
         % (MAINT_UART_ID, MAINT_RX, MAINT_TX, ADC_BATTERY, ADC_CURRENT),
     )

@@ -9,18 +9,20 @@ Step 6 of the pass, in two halves on either side of `board.write_motors`:
   PWM scale (1000 us = 0, 2000 us = 1 of motor_out; the encoder scales them to OneShot's widths
   or DShot's throttle range like every command), and a cleared `motor_enable` bit keeps the
   motor at 0 (stop) even armed. Disarmed gives 0 whatever the mixer says. Demand outside 0..1
-  (or NaN) is clamped and counted. hoverfly has no 3D mode: 0..1 runs one way only. Servo
-  positions (tri tail, fixed-wing surfaces) pass through, centred while disarmed. With
-  bidirectional DShot it decodes the ESCs' eRPM replies (21-bit GCR line codes from the board)
-  into eRPM and RPM per motor, rejecting corrupted replies by their GCR and CRC checks.
+  (or NaN) is clamped and counted. hoverfly has no 3D mode: 0..1 runs one way only. A
+  tricopter's tail position passes through, centred while disarmed (a plane's surfaces are the
+  servo mixer's, core/stages/servos.py). With bidirectional DShot it decodes the ESCs' eRPM
+  replies (21-bit GCR line codes from the board) into eRPM and RPM per motor, rejecting
+  corrupted replies by their GCR and CRC checks.
 - `OutputEncoder` (held by a board): `motor_out` -> what the wire carries, for the protocol
   picked by `motor_protocol`: DShot150/300/600/1200 16-bit frames (`words`) or OneShot125,
-  OneShot42, Multishot, PWM pulse widths in µs (`pulse_us`); servos as PWM widths
-  (`servo_us`). It maps motors to output lines (`motor_order`), sends the DShot boot commands
-  while every motor is stopped (3D mode off; spin direction for `motor_reversed`), and keeps
-  the OUTPUT FAILSAFE: the board's output timer calls `tick(now_us)`; when no fresh command
-  came for `output_fs_ms` (100 ms, seed 002) every output goes to its disarmed value (DShot 0,
-  the protocol's minimum pulse, servo centre) until commands resume.
+  OneShot42, Multishot, PWM pulse widths in µs (`pulse_us`); servos as the servo mixer's
+  widths in µs (`servo_us`, core/stages/servos.py). It maps motors to output lines
+  (`motor_order`), sends the DShot boot commands while every motor is stopped (3D mode off;
+  spin direction for `motor_reversed`), and keeps the OUTPUT FAILSAFE: the board's output
+  timer calls `tick(now_us)`; when no fresh command came for `output_fs_ms` (100 ms, seed 002)
+  every output goes to its disarmed value (DShot 0, the protocol's minimum pulse, each servo at
+  its `servoN_mid_us`) until commands resume.
 
 Portable: runs on the Pico (MicroPython) and in the simulator. Nothing here allocates per pass
 except float results. With the fixed rate loop (`pid_math`, core/fastpass/fixedrate.py) the motor commands
@@ -53,7 +55,7 @@ from hoverfly.protocols.dshot import (
 PROTOCOLS = row("motor_protocol")[4]
 _DSHOT_KBIT = (150, 300, 600, 1200)
 _ANALOG = (analog.ONESHOT125, analog.ONESHOT42, analog.MULTISHOT, analog.PWM)
-MAX_SERVOS = 4
+MAX_SERVOS = 4  # servo lines a board drives (the servo mixer's signals hold 8: core/stages/servos.py)
 _INV16 = 1.0 / 65536.0
 
 # OutputEncoder.write's encode for a motor_out it has seen: the viper twin on the float32 bits, or
@@ -67,6 +69,8 @@ if IS_MICROPYTHON:
     except (ImportError, SyntaxError, NameError, ValueError, TypeError):  # TypeError: ViperTypeError
         pass
 HAS_ACCEL = _viper is not None
+_SERVO_MIN_US = const(500)  # analog.SERVO_LIMIT_MIN_US: the widest range any common servo takes
+_SERVO_MAX_US = const(2500)
 _CLAMPED_MAX = const(0x3FFFFFFF)  # update_fixed's count saturates here: a 32-bit word in the viper twin
 
 
@@ -303,16 +307,14 @@ class OutputEncoder:
         self.servo_count = 0
         self.words = array("H", [0] * MAX_MOTORS)
         self.pulse_us = array("f", [0.0] * MAX_MOTORS)
-        self.servo_us = array("f", [1500.0] * MAX_SERVOS)
+        self.servo_us = array("H", [1500] * MAX_SERVOS)
+        self.servo_mid = array("H", [1500] * MAX_SERVOS)  # each line's disarmed and failsafe width
         self.line_of_motor = bytes(range(MAX_MOTORS))
         self.motor_of_line = bytes(range(MAX_MOTORS))
         self.reversed_mask = 0
         self.rate_hz = 480
         self.min_us = 1000.0
         self.len_us = 1000.0
-        self.servo_min_us = 1000.0
-        self.servo_mid_us = 1500.0
-        self.servo_max_us = 2000.0
         self.servo_rate_hz = 50
         self.timeout_us = 100000
         self.error = ""
@@ -368,17 +370,16 @@ class OutputEncoder:
                 self.rate_hz = lo if self.rate_hz < lo else hi
             self.min_us, hi_us = analog.pulse_range_us(self.analog)
             self.len_us = hi_us - self.min_us
-        s_min = params.get("servo_min_us")
-        s_mid = params.get("servo_mid_us")
-        s_max = params.get("servo_max_us")
         self.servo_rate_hz = params.get("servo_pwm_rate")
-        err = analog.validate_servo(self.servo_rate_hz, s_min, s_mid, s_max)
-        if err:
-            errors.append(err)
-            s_min, s_mid, s_max = 1000, 1500, 2000
-        self.servo_min_us = float(s_min)
-        self.servo_mid_us = float(s_mid)
-        self.servo_max_us = float(s_max)
+        for i in range(MAX_SERVOS):
+            s_min = params.get("servo%d_min_us" % i)
+            s_mid = params.get("servo%d_mid_us" % i)
+            s_max = params.get("servo%d_max_us" % i)
+            err = analog.validate_servo(self.servo_rate_hz, s_min, s_mid, s_max) if i < servo_count else None
+            if err:
+                errors.append("servo %d: %s" % (i, err))
+            # SAFETY: the failsafe width is the servo's own mid, always inside 500..2500 (the row's range)
+            self.servo_mid[i] = s_mid
         self.error = "; ".join(errors)
         self.commands = DshotCommandQueue(self.bidir, 2 + MAX_MOTORS)
         if self.dshot:
@@ -401,7 +402,7 @@ class OutputEncoder:
                 self.commands.push(cmd, False, self.line_of_motor[m])
 
     def _set_disarmed(self):
-        # SAFETY: the disarmed value of every line: DShot 0 (stop), the minimum pulse, servo centre.
+        # SAFETY: the disarmed value of every line: DShot 0 (stop), the minimum pulse, each servo's mid.
         if self.dshot:
             w = self._stop_word
             words = self.words
@@ -413,9 +414,9 @@ class OutputEncoder:
             for i in range(self.motor_count):
                 p[i] = lo
         s = self.servo_us
-        mid = self.servo_mid_us
+        mid = self.servo_mid
         for i in range(self.servo_count):
-            s[i] = mid
+            s[i] = mid[i]
 
     # ---------------------------------------------------------------- the pass
     def write(self, motor_out, count, now_us):
@@ -480,27 +481,21 @@ class OutputEncoder:
         self._f32 = motor_out
         return True
 
-    def write_servos(self, servo_norm, count, now_us):
-        """Servo positions -1..1 -> widths: each side of centre linear to its end point."""
+    def write_servos(self, servo_us, count, now_us):
+        """The servo mixer's widths (µs) onto the servo lines, clamped to what a servo takes (500..2500)."""
         n = self.servo_count
         if count < n:
             n = count
         s = self.servo_us
-        mid = self.servo_mid_us
-        up = self.servo_max_us - mid
-        down = mid - self.servo_min_us
         for i in range(n):
-            x = servo_norm[i]
-            if x > 1.0:
-                x = 1.0
+            w = servo_us[i]
+            if w > _SERVO_MAX_US:
+                w = _SERVO_MAX_US
                 self.clamped += 1
-            elif x < -1.0:
-                x = -1.0
+            elif w < _SERVO_MIN_US:
+                w = _SERVO_MIN_US
                 self.clamped += 1
-            elif x != x:
-                x = 0.0
-                self.clamped += 1
-            s[i] = mid + (up if x >= 0.0 else down) * x
+            s[i] = w
 
     def tick(self, now_us):
         """The output timer's check; True while the output failsafe holds every line at its disarmed value.
