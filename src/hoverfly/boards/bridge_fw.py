@@ -29,6 +29,12 @@ from hoverfly.protocols import bridge as B
 # Collect in the slack between answering a step and the next one arriving, and only when
 # the free heap drops below this: never inside the flight pass.
 GC_FREE_BYTES = 32768
+# What one STEP may allocate at most, with room: the pass's boxed floats and the frame's values
+# (1.3 KB on average, 3.7 KB at most over a 6 s hover on the unix VM: bench/bridge_alloc.py).
+# gc.mem_free() walks the heap's whole allocation table (about 85 us on the VM's 768 KB heap, five
+# times the flight pass), so the free heap is read again only once the steps since the last reading
+# could have used up what stood above GC_FREE_BYTES.
+STEP_ALLOC_MAX = 4096
 
 
 class BridgeBoard(SampledBoard):
@@ -107,12 +113,14 @@ class Firmware:
         self.steps = 0
         self.gc_runs = 0
         self._ev_seen = 0
+        self._heap_check_in = 0  # steps until slack() reads the free heap again
         self.done = False
 
     def handle(self, kind, payload, length):
         """Answer one frame: the number of bytes of the reply now in self.out."""
         if kind == B.STEP:
             return self.step(payload, length)
+        self._heap_check_in = 0  # a configuration frame may allocate a lot: the next slack() looks
         if kind == B.MSP_RC:
             return self.msp_rc(payload, length)
         if kind == B.HELLO:
@@ -304,9 +312,17 @@ class Firmware:
 
     def slack(self):
         """Between steps: the host is busy with the physics, the flight pass is not running."""
-        if IS_MICROPYTHON and mem_free() < GC_FREE_BYTES:
+        if not IS_MICROPYTHON:
+            return
+        self._heap_check_in -= 1
+        if self._heap_check_in > 0:
+            return
+        free = mem_free()
+        if free < GC_FREE_BYTES:
             collect_garbage()
             self.gc_runs += 1
+            free = mem_free()
+        self._heap_check_in = (free - GC_FREE_BYTES) // STEP_ALLOC_MAX
 
 
 def serve(stream_in, stream_out, firmware=None):

@@ -416,7 +416,7 @@ class BridgedFlight:
                 except BridgeEnded as exc:
                     self._fail(str(exc))
                 if data:
-                    if dec.feed(data) or dec.pending():
+                    if dec.feed_frame(data) or dec.pending():
                         break
                     if dec.bytes - bytes0 <= GARBLED_BYTES:
                         continue
