@@ -1,12 +1,13 @@
-"""Betaflight-style CLI on a byte stream: help, get, set, dump, diff, map, save, defaults, status, exit.
+"""Betaflight-style CLI on a byte stream: help, get, set, dump, diff, map, smix, servo, save, defaults, status, exit.
 
 Takes the bytes typed on the CLI/MSP port after `#` entered the CLI (`CliServer.feed(data, n,
 write)`, any chunking; CR or LF ends a line, backspace edits, characters are echoed as
 Betaflight does) and the Flight; gives text lines through `write(bytes)`. Every name, range and
 default comes from core/config/params.py; Betaflight's long names are accepted where hoverfly's differ
 (ALIASES, with the unit conversion). While the CLI is open flight.config_session bit 1 blocks
-arming; while armed, set, save and defaults are refused. Runs from the links task, never in the
-flight pass.
+arming; while armed, set, save, defaults and the smix/servo writes are refused. `smix` and `servo` are
+INAV's commands for the servo mixer (core/stages/servos.py), written through the same parameter rows.
+Runs from the links task, never in the flight pass.
 """
 
 from hoverfly import __version__
@@ -16,7 +17,9 @@ from hoverfly.core.config.storage import STATUS_NAMES
 from hoverfly.core.links.mspserver import CONFIG_CLI, reason_words
 from hoverfly.core.safety.arming import reason_names
 from hoverfly.core.scheduler import PS_CYCLE, PS_CYCLE_MAX, PS_JITTER_MAX
+from hoverfly.core.stages.output import MAX_SERVOS as SERVO_LINES
 from hoverfly.core.stages.rc import map_text, map_value
+from hoverfly.core.stages.servos import INPUT_NAMES, reset_pairs, rule_pairs, rules_of, servo_pairs, servo_rows
 
 HELP = (
     "help                      this list",
@@ -25,6 +28,8 @@ HELP = (
     "dump                      every parameter as set lines",
     "diff [all]                only what differs from the defaults",
     "map [AETR1234]            show or set the channel map (rc_map): a letter per receiver channel",
+    "smix [reset | N servo input rate speed]  servo mixer rules as INAV's (alone: list them)",
+    "servo [N min max mid rate]  servo end points, centre and rate % (negative reverses; alone: list)",
     "save                      write the parameters to storage and leave the CLI",
     "defaults [nosave]         reset to defaults (and save, unless nosave)",
     "status                    arming, loop, sensors, link, storage",
@@ -148,6 +153,10 @@ class CliServer:
             out = self.cmd_status()
         elif cmd == "map":
             out = self.cmd_map(arg)
+        elif cmd == "smix":
+            out = self.cmd_smix(arg)
+        elif cmd == "servo":
+            out = self.cmd_servo(arg)
         elif cmd == "batch":
             out = []  # pasted diffs carry 'batch start' / 'batch end': nothing to do
         elif cmd == "exit":
@@ -244,6 +253,62 @@ class CliServer:
                 return ["###ERROR: %s###" % err]
         return ["map %s" % map_text(params.get("rc_map"))]
 
+    def cmd_smix(self, arg):
+        """INAV's `smix`: alone, the rules the servo mixer runs (the mixer_type's preset when none is stored);
+        `smix reset` clears the stored rules; `smix N servo input rate speed` sets rule N (rate 0 removes it).
+        Writes are refused while armed and change nothing on a bad value."""
+        params = self.flight.params
+        words = arg.split()
+        if words:
+            refused = self._armed_refusal("smix")
+            if refused:
+                return [refused]
+            if len(words) == 1 and words[0].lower() == "reset":
+                err = params.update(reset_pairs())
+            else:
+                nums = _ints(words)
+                if nums is None or len(nums) != 5:
+                    return ["###ERROR: use smix N servo input rate speed (whole numbers), or smix reset###"]
+                pairs, err = rule_pairs(params, nums[0], nums[1], nums[2], nums[3], nums[4], SERVO_LINES)
+                if err is None:
+                    err = params.update(pairs)
+            if err is not None:
+                return ["###ERROR: %s###" % err]
+        rules = rules_of(params)
+        out = ["# smix: rule servo input rate speed"]
+        stored = any(params.stored("smix%d_rate" % i) for i in range(16))
+        if rules and not stored:
+            out.append("# %s preset (no rules stored)" % params.get("mixer_type"))
+        for i, servo, source, rate, speed in rules:
+            out.append("smix %d %d %d %d %d  # %s" % (i, servo, source, rate, speed, INPUT_NAMES[source]))
+        if not rules:
+            out.append("# no rules")
+        return out
+
+    def cmd_servo(self, arg):
+        """INAV's `servo`: alone, every servo line's `servo N min max mid rate`; with five numbers it sets one
+        (refused while armed, and with min > mid or mid > max)."""
+        params = self.flight.params
+        words = arg.split()
+        if words:
+            refused = self._armed_refusal("servo")
+            if refused:
+                return [refused]
+            nums = _ints(words)
+            if nums is None or len(nums) != 5:
+                return ["###ERROR: use servo N min max mid rate (whole numbers, us and %)###"]
+            pairs, err = servo_pairs(nums[0], nums[1], nums[2], nums[3], nums[4], SERVO_LINES)
+            if err is None:
+                err = params.update(pairs)
+            if err is not None:
+                return ["###ERROR: %s###" % err]
+        out = ["# servo: N min max mid rate"]
+        for i in range(SERVO_LINES):
+            n = servo_rows(i)
+            out.append("servo %d %d %d %d %d" % (i, params.stored(n[0]), params.stored(n[2]), params.stored(n[1]),
+                                               params.stored(n[3])))
+        return out
+
     def cmd_dump(self, only_changed):
         p = self.flight.params
         board = getattr(self.flight.board, "name", "board")
@@ -329,6 +394,12 @@ class CliServer:
             if getattr(st, "skipped", 0):
                 out.append("Parameters: %d stored value(s) skipped at boot: %s"
                            % (st.skipped, "; ".join(getattr(st, "skip_reasons", ())[:4])))
+        servos = getattr(f, "servos", None)
+        if servos is not None and servos.count:
+            us = f.signals.servo_us
+            out.append("Servos: %s us (%s, %d rules)%s" % (" ".join([str(us[i]) for i in range(servos.count)]),
+                                                         f.params.get("mixer_type"), servos.rules,
+                                                         "; " + servos.error if servos.error else ""))
         line = getattr(f.board, "status_line", None)
         if line is not None:
             out.append("Board: %s" % line())
@@ -337,3 +408,14 @@ class CliServer:
         if getattr(self, "links", None) is not None:
             out.append(self.links.status_line())
         return out
+
+
+def _ints(words):
+    """The words as whole numbers, or None if one is not."""
+    out = []
+    for w in words:
+        try:
+            out.append(int(w))
+        except ValueError:
+            return None
+    return out
