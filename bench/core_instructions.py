@@ -15,6 +15,7 @@ with the allocator working on the heap a board keeps, collection not. (Until 202
 for all the counted passes, so the allocator's free-block search grew with 300 passes of garbage and
 dominated small differences.) Prints one JSON object: {passes, micropython: {ir_per_pass}, cpython:
 {ir_per_pass}} (a runtime that is missing is left out with the reason).
+`--rpm N` counts the flight with the RPM filter at N harmonics (bench/core_loop.py --rpm).
 """
 
 import sys
@@ -94,14 +95,14 @@ def _count(cmd, env):
     return total
 
 
-def ir_per_pass(cmd, env, passes=PASSES):
+def ir_per_pass(cmd, env, extra=(), passes=PASSES):
     """Instructions of one pass: `cmd` (a runtime and this script) stepping the flight 3 * `passes` times,
     less the same stepping it `passes` times, over 2 * `passes`. (Until 2026-12 the second run only advanced
     the clock: its start-up, identical in the two runs up to that point, still came out some 13M
     instructions apart on MicroPython, in gc_alloc, which made a pass read about 30 % light.)"""
     counts = {}
     for n in (passes, 3 * passes):
-        counts[n] = _count(cmd + ["--child", str(n)], env)
+        counts[n] = _count(cmd + ["--child", str(n)] + list(extra), env)
     return round((counts[3 * passes] - counts[passes]) / (2 * passes))
 
 
@@ -121,6 +122,10 @@ def main():
 
     generate_all()  # the VM flies src/'s generated viper stages (docs/fastpass.md)
     result = {"passes": PASSES}
+    extra = []
+    if "--rpm" in sys.argv:
+        extra = ["--rpm", sys.argv[sys.argv.index("--rpm") + 1]]
+        result["rpm_harmonics"] = int(extra[1])
     mp = micropython_vm()
     runtimes = [("cpython", [sys.executable, me], dict(os.environ, PYTHONHASHSEED="0"))]
     if mp is None:
@@ -129,13 +134,13 @@ def main():
         env = dict(os.environ, MICROPYPATH="%s:%s" % (os.path.join(root, "src"), here))
         runtimes.insert(0, ("micropython", [mp, "-X", "heapsize=512k", me], env))
     for name, cmd, env in runtimes:
-        result[name] = {"ir_per_pass": ir_per_pass(cmd, env)}
+        result[name] = {"ir_per_pass": ir_per_pass(cmd, env, extra)}
     print(json.dumps(result))
     return 0
 
 
 if __name__ == "__main__":
-    if len(sys.argv) == 3 and sys.argv[1] == "--child":
+    if len(sys.argv) >= 3 and sys.argv[1] == "--child":
         _child(int(sys.argv[2]))
     else:
         sys.exit(main())

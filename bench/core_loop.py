@@ -16,6 +16,7 @@ words, commander included (Betaflight's gyro/PID loop, its tasks apart).
     python3 -m hoverfly.fastgen   # first: the generated viper stages the VM imports (docs/fastpass.md)
     MICROPYPATH=src:.frozen micropython -X heapsize=512k bench/core_loop.py
     MICROPYPATH=src:.frozen micropython -X heapsize=512k bench/core_loop.py --rx-core1
+    MICROPYPATH=src:.frozen micropython -X heapsize=512k bench/core_loop.py --rpm 1   # RPM filter, 1 harmonic
 
 With --rx-core1 the receiver's UART reads and CRSF parsing are core 1's (`rx_core1`, core/stages/rxcore.py): the
 codec's RxCore polls the bench board before every other pass, outside the timing (on a Pico it runs on the
@@ -46,6 +47,13 @@ if sys.implementation.name == "micropython":
             __import__("hoverfly." + _name)
         except (SyntaxError, ImportError):  # an accel module on a port without viper (its module falls back),
             pass  # or a module an older tree does not have (the bench compares trees)
+        if _name == "core.stages.output" and "--rpm" in sys.argv:  # the RPM filter's, which Flight imports then
+            for _rpm in ("core.stages.rpmfilter", "accel.rpmfilter", "core.fastpass.fixedrpm"):
+                gc.collect()
+                try:
+                    __import__("hoverfly." + _rpm)
+                except (SyntaxError, ImportError):
+                    pass
     gc.collect()
 
 from hoverfly.compat import (
@@ -65,6 +73,10 @@ from hoverfly.core.stages.output import OutputEncoder
 from hoverfly.drivers.mpu6050 import MPU6050, WHO_AM_I_VALUE
 from hoverfly.drivers.orientation import Orientation
 from hoverfly.protocols.crsf import encode_rc_frame
+from hoverfly.protocols.dshot import erpm_reply_word, gcr_encode
+
+# --rpm N: bidirectional DShot with the RPM filter at N harmonics, the ESCs answering every frame with eRPM
+RPM_HARMONICS = int(sys.argv[sys.argv.index("--rpm") + 1]) if "--rpm" in sys.argv else 0
 
 
 class BurstBus:
@@ -113,6 +125,8 @@ class BenchBoard(Board):
         # The device's own driver decodes the burst (2000 deg/s, 16 g, as the rp2 board sets it).
         self.imu = MPU6050(self.bus, Orientation(), delay_us=lambda us: None)
         self.imu.configure()
+        # the ESCs' replies (--rpm): four motors near a 5-inch's hover, 10 000 RPM on 14 poles, as GCR line codes
+        self.replies = [gcr_encode(erpm_reply_word(70000 + 700 * m)) for m in range(4)]
 
     def now_us(self):
         return self.t
@@ -138,6 +152,14 @@ class BenchBoard(Board):
     def write_motors(self, out, n):
         self.encoder.write(out, n, self.t)
 
+    def read_motor_telemetry(self, codes, count):
+        if not RPM_HARMONICS:
+            return False
+        r = self.replies
+        for m in range(count):
+            codes[m] = r[m & 3]
+        return True
+
 
 def armed_flight():
     """The bench flight, calibrated and armed: (board, flight, time of its last pass in µs).
@@ -148,6 +170,9 @@ def armed_flight():
     f.params.set("gyro_cal_ms", 100)
     f.params.set("boot_grace_ms", 0)
     f.params.set("min_check", 1500)
+    if RPM_HARMONICS:
+        f.params.set("dshot_bidir", 1)
+        f.params.set("rpm_harmonics", RPM_HARMONICS)
     f.start(0)
     t = 0
     for _ in range(3000):
@@ -155,6 +180,7 @@ def armed_flight():
         board.t = t
         f.step(t)
     assert f.arming.armed, "bench flight did not arm"
+    assert f._rpm_on == (RPM_HARMONICS > 0), "the RPM filter is not as asked"
     return board, f, t
 
 
@@ -258,8 +284,8 @@ def main():
     # loop_us_per_pass: the pass less its slow tasks, what Betaflight calls the gyro/PID loop (its `tasks`
     # command lists the receiver and the other tasks apart); the board runs both in the same period.
     print('{"runtime": "%s", "us_per_pass": %.2f, "bytes_per_pass": %.1f, "passes": %d, "passes_per_gc": %.1f, '
-          '"us_per_pass_after_gc": %.2f, "tasks_us_per_pass": %.2f, "loop_us_per_pass": %.2f%s}'
-          % (runtime, best[0], best[1], passes, best[2], best[3], tasks, best[0] - tasks,
+          '"us_per_pass_after_gc": %.2f, "tasks_us_per_pass": %.2f, "loop_us_per_pass": %.2f, "rpm_harmonics": %d%s}'
+          % (runtime, best[0], best[1], passes, best[2], best[3], tasks, best[0] - tasks, RPM_HARMONICS,
              ', "rx_core1": true' if core1 else ""))
 
 

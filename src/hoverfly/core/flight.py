@@ -21,7 +21,6 @@ from hoverfly.core.fastpass.fixedatt import FixedAttitude
 from hoverfly.core.fastpass.fixedimu import HAS_ACCEL as _FIXED_IMU_ACCEL
 from hoverfly.core.fastpass.fixedimu import FixedImuFilter
 from hoverfly.core.fastpass.fixedrate import FixedRate
-from hoverfly.core.fastpass.fixedrpm import FixedRpmFilter
 from hoverfly.core.log.logger import Logger
 from hoverfly.core.safety.arming import Arming
 from hoverfly.core.safety.bit import BuiltInTest
@@ -39,7 +38,6 @@ from hoverfly.core.stages.output import OutputStage
 from hoverfly.core.stages.rc import RcInput
 from hoverfly.core.stages.receiver import Receiver
 from hoverfly.core.stages.servos import ServoMixer
-from hoverfly.core.stages.rpmfilter import RpmFilter
 
 # With no log running, the fixed controller writes its PID terms and torques out every this many passes
 # (the maintenance telemetry reads them: at 1 kHz, at most 8 ms old).
@@ -72,9 +70,11 @@ class Flight:
         self._out_more = False  # a yaw servo or bidirectional DShot: _outputs has more to do (configure)
         self.fixed_att = FixedAttitude()  # the estimator (Mahony) in fixed point, likewise
         self._fixed_att_on = False
-        self.rpm_filter = RpmFilter(self.events)  # notches at the motors' frequencies (bidirectional DShot)
+        # notches at the motors' frequencies (bidirectional DShot), float and fixed point: made by the first
+        # configure that asks for them (rpm_harmonics > 0), so a craft without them keeps the heap (4-8 kB)
+        self.rpm_filter = None
         self._rpm_on = False
-        self.fixed_rpm = FixedRpmFilter()  # the same in fixed point, with the fixed IMU filters
+        self.fixed_rpm = None
         self._rpm_fixed = False
         self.output = OutputStage()
         self.servos = ServoMixer()  # a plane's surfaces (smix rules), read by _outputs
@@ -176,12 +176,27 @@ class Flight:
         self.motor_test.configure(p, self.motor_count)
         self.board.configure_outputs(p, self.motor_count, servo_count)
         self._out_more = self.mixer.servo_yaw or self.servos.count > 0 or self.output.bidir  # servos, ESC replies
-        self.rpm_filter.configure(p, hz, self.motor_count, self.output.bidir)
-        self._rpm_on = self.rpm_filter.active
-        self._rpm_fixed = self.fixed_rpm.configure(self.rpm_filter, self.signals, self._fixed_imu_on)
+        self._configure_rpm(p, hz)
         self._rx_timeout_us = p.get("rx_timeout_ms") * 1000
         self._route()
         self._configured_at = p.changed
+
+    def _configure_rpm(self, p, hz):
+        """The RPM filter, where rpm_harmonics asks for it (in fixed point with the fixed IMU filters)."""
+        if self.rpm_filter is None:
+            if p.get("rpm_harmonics") == 0:
+                return
+            from hoverfly.core.stages.rpmfilter import RpmFilter
+
+            self.rpm_filter = RpmFilter(self.events)
+        self.rpm_filter.configure(p, hz, self.motor_count, self.output.bidir)
+        self._rpm_on = self.rpm_filter.active
+        if self._rpm_on and self._fixed_imu_on and self.fixed_rpm is None:
+            from hoverfly.core.fastpass.fixedrpm import FixedRpmFilter
+
+            self.fixed_rpm = FixedRpmFilter()
+        self._rpm_fixed = self.fixed_rpm is not None and self.fixed_rpm.configure(
+            self.rpm_filter, self.signals, self._fixed_imu_on)
 
     def configure_pending(self):
         """Parameters changed since configure() last ran (it runs in the 100 Hz task, while disarmed)."""
@@ -467,7 +482,8 @@ class Flight:
             gf.lpf1[i].reset()
             gf.lpf2[i].reset()
             gf.notch[i].reset()
-        self.rpm_filter.reset()
+        if self.rpm_filter is not None:
+            self.rpm_filter.reset()
         self.mahony.reset(self.signals.attitude)
         self.controller.reset()
         self._first_imu = True

@@ -227,7 +227,7 @@ class Supervisor:
         if self.autopilot.switch_on():
             more |= 1 << AUTOPILOT
         rpm = f.rpm_filter
-        if rpm.refused or rpm.lost:  # Betaflight's RPMFILTER: no flight on a filter that cannot see the motors
+        if rpm is not None and (rpm.refused or rpm.lost):  # Betaflight's RPMFILTER: it cannot see the motors
             more |= 1 << RPMFILTER
         self.arming.check(now_us, self.imu_ok, self.calibration.calibrated, f.rx_ok, throttle_low,
                           self.signals.attitude.cos_tilt, self.overloaded, more)
