@@ -44,6 +44,7 @@ MSP_REBOOT = const(68)
 MSP_SET_ARMING_DISABLED = const(99)
 MSP_STATUS = const(101)
 MSP_RAW_IMU = const(102)
+MSP_SERVO = const(103)
 MSP_MOTOR = const(104)
 MSP_RC = const(105)
 MSP_ATTITUDE = const(108)
@@ -53,6 +54,7 @@ MSP_RC_TUNING = const(111)
 MSP_PID = const(112)
 MSP_BOXNAMES = const(116)
 MSP_BOXIDS = const(119)
+MSP_SERVO_CONFIGURATIONS = const(120)
 MSP_MOTOR_CONFIG = const(131)
 MSP_STATUS_EX = const(150)
 MSP_UID = const(160)
@@ -60,9 +62,12 @@ MSP_SET_RAW_RC = const(200)
 MSP_SET_PID = const(202)
 MSP_ACC_CALIBRATION = const(205)
 MSP_MAG_CALIBRATION = const(206)
+MSP_SET_SERVO_CONFIGURATION = const(212)
 MSP_SET_MOTOR = const(214)
 MSP_EEPROM_WRITE = const(250)
 MSP_V2_FRAME = const(255)  # v1 cmd 255: a v2 frame inside
+MSP2_INAV_SERVO_MIXER = const(0x2020)
+MSP2_INAV_SET_SERVO_MIXER = const(0x2021)
 MSP2_SEND_DSHOT_COMMAND = const(0x3003)
 # hoverfly's own (docs/msp.md "hoverfly commands"): at the top of the 0x3000 block, far from the ids
 # Betaflight hands out from 0x3000 upwards, so a Betaflight client never meets it by accident.
@@ -1071,6 +1076,78 @@ def unpack_set_raw_rc_into(payload, length, out):
 def pack_set_motor(motors_us):
     """MSP_SET_MOTOR request: u16 per motor on the 1000..2000 scale (configurators send 8)."""
     return _pack_u16s(motors_us, 8)
+
+
+# Servos, in INAV's layouts (INAV's fc_msp.c): MSP_SERVO's widths, MSP_SERVO_CONFIGURATIONS' 14 bytes a servo
+# (the last 7 are fields INAV keeps for old configurators: 0, 0, 255, u32 0), and MSP2_INAV_SERVO_MIXER's
+# 6 bytes a rule (the last a logic condition id, 255 = always).
+SERVO_CONFIG_BYTES = const(14)
+SERVO_RULE_BYTES = const(6)
+
+
+def pack_servo(widths_us):
+    """MSP_SERVO: u16 µs per servo."""
+    return _pack_u16s(widths_us)
+
+
+def pack_servo_configurations(servos):
+    """MSP_SERVO_CONFIGURATIONS: per servo (min_us, max_us, mid_us, rate %): u16 min, u16 max, u16 middle,
+    i8 rate, then 0, 0, 255, u32 0."""
+    out = bytearray()
+    for lo, hi, mid, rate in servos:
+        out += pack("<HHHbBBBI", lo & 0xFFFF, hi & 0xFFFF, mid & 0xFFFF, max(-128, min(127, rate)), 0, 0, 255, 0)
+    return bytes(out)
+
+
+def unpack_servo_configurations(payload):
+    """[(min_us, max_us, mid_us, rate %)] from an MSP_SERVO_CONFIGURATIONS payload."""
+    return [unpack_from("<HHHb", payload, k) for k in range(0, len(payload) - SERVO_CONFIG_BYTES + 1,
+                                                            SERVO_CONFIG_BYTES)]
+
+
+def pack_set_servo_configuration(index, lo, hi, mid, rate):
+    """MSP_SET_SERVO_CONFIGURATION request: u8 index, then one servo as MSP_SERVO_CONFIGURATIONS has it."""
+    return pack("<B", _u8(index)) + pack_servo_configurations(((lo, hi, mid, rate),))
+
+
+def unpack_set_servo_configuration(payload, length=-1):
+    """(index, min_us, max_us, mid_us, rate %) from MSP_SET_SERVO_CONFIGURATION, or None unless it is the 15
+    bytes INAV takes."""
+    if length < 0:
+        length = len(payload)
+    if length != 1 + SERVO_CONFIG_BYTES:
+        return None
+    return unpack_from("<BHHHb", payload, 0)
+
+
+def pack_servo_mixer(rules):
+    """MSP2_INAV_SERVO_MIXER: per rule (servo, input, rate %, speed): u8 servo, u8 input, i16 rate, u8 speed,
+    u8 condition (255: hoverfly has no logic conditions)."""
+    out = bytearray()
+    for servo, source, rate, speed in rules:
+        out += pack("<BBhBB", _u8(servo), _u8(source), _i16(rate), _u8(speed), 255)
+    return bytes(out)
+
+
+def unpack_servo_mixer(payload):
+    """[(servo, input, rate %, speed, condition)] from an MSP2_INAV_SERVO_MIXER payload."""
+    return [unpack_from("<BBhBB", payload, k) for k in range(0, len(payload) - SERVO_RULE_BYTES + 1,
+                                                             SERVO_RULE_BYTES)]
+
+
+def pack_set_servo_mixer(index, servo, source, rate, speed, condition=255):
+    """MSP2_INAV_SET_SERVO_MIXER request: u8 rule index, then one rule as MSP2_INAV_SERVO_MIXER has it."""
+    return pack("<BBBhBB", _u8(index), _u8(servo), _u8(source), _i16(rate), _u8(speed), _u8(condition))
+
+
+def unpack_set_servo_mixer(payload, length=-1):
+    """(index, servo, input, rate %, speed, condition) from MSP2_INAV_SET_SERVO_MIXER, or None unless it is the
+    7 bytes INAV takes."""
+    if length < 0:
+        length = len(payload)
+    if length != 1 + SERVO_RULE_BYTES:
+        return None
+    return unpack_from("<BBBhBB", payload, 0)
 
 
 def unpack_set_motor(payload, length=-1):

@@ -12,6 +12,9 @@ SET_MOTOR, ACC_CALIBRATION, EEPROM_WRITE and REBOOT are refused while armed; SET
 flight.motor_test.request with props_off = this session's SET_ARMING_DISABLED(1) (the
 configurator's "I understand the risks" switch), which also holds config_session bit 2.
 SET_MODE_RANGE (refused while armed) writes a box's range parameters through params.update;
+SERVO, SERVO_CONFIGURATIONS and MSP2_INAV_SERVO_MIXER show the servo mixer in INAV's layouts, and
+SET_SERVO_CONFIGURATION / MSP2_INAV_SET_SERVO_MIXER (refused while armed) write it through the same
+checks as the CLI's `servo` and `smix` (core/stages/servos.py);
 MSP2_HOVERFLY_AUTOPILOT (0x3F00) reports seed 004's autopilot privilege state (docs/msp.md).
 """
 
@@ -25,7 +28,9 @@ from hoverfly.core.safety.arming import REASONS
 from hoverfly.core.safety.failsafe import IDLE
 from hoverfly.core.scheduler import PS_CYCLE
 from hoverfly.core.stages.control import MODE_ANGLE, MODE_HORIZON
+from hoverfly.core.stages.output import MAX_SERVOS as SERVO_LINES
 from hoverfly.core.stages.rc import map_channels
+from hoverfly.core.stages.servos import MAX_RULES, MAX_SERVOS, rule_pairs, rules_of, servo_pairs, servo_rows
 from hoverfly.protocols import msp
 
 CONFIG_CLI = 1  # flight.config_session bits (core/safety/arming.py blocks arming while any is set)
@@ -199,6 +204,19 @@ class MspServer(ParsedRequests):
             return msp.pack_motor([1000 + int(out[i] * 1000.0 + 0.5) for i in range(f.motor_count)])
         if cmd == msp.MSP_RC:
             return msp.pack_rc(self._rc_order())
+        if cmd == msp.MSP_SERVO:
+            return msp.pack_servo(s.servo_us)
+        if cmd == msp.MSP_SERVO_CONFIGURATIONS:
+            return self._servo_configurations()
+        if cmd == msp.MSP2_INAV_SERVO_MIXER:
+            return self._servo_mixer()
+        if cmd == msp.MSP_SET_SERVO_CONFIGURATION or cmd == msp.MSP2_INAV_SET_SERVO_MIXER:
+            # SAFETY: a surface reversed or re-mixed in flight is a crash: not while armed.
+            if f.arming.armed:
+                return self._refuse("refused while armed")
+            if cmd == msp.MSP_SET_SERVO_CONFIGURATION:
+                return self._set_servo_configuration(payload, length)
+            return self._set_servo_mixer(payload, length)
         if cmd == msp.MSP_ATTITUDE:
             att = s.attitude
             return msp.pack_attitude(att.roll_rad * _DEG * 10.0, att.pitch_rad * _DEG * 10.0,
@@ -282,6 +300,43 @@ class MspServer(ParsedRequests):
             return msp.pack_reboot(0)
         self.unknown += 1
         return self._refuse("unknown MSP command %d" % cmd)
+
+    def _servo_configurations(self):
+        p = self.flight.params
+        servos = []
+        for i in range(MAX_SERVOS):
+            n = servo_rows(i)
+            servos.append((p.stored(n[0]), p.stored(n[2]), p.stored(n[1]), p.stored(n[3])))
+        return msp.pack_servo_configurations(servos)
+
+    def _servo_mixer(self):
+        """The rules the mixer runs (the mixer_type's preset when none is stored), padded to MAX_RULES."""
+        rules = [(0, 0, 0, 0)] * MAX_RULES
+        for i, servo, source, rate, speed in rules_of(self.flight.params):
+            rules[i] = (servo, source, rate, speed)
+        return msp.pack_servo_mixer(rules)
+
+    def _set_servo_configuration(self, payload, length):
+        got = msp.unpack_set_servo_configuration(payload, length)
+        if got is None:
+            return self._refuse("SET_SERVO_CONFIGURATION needs 15 bytes: index, min, max, middle, rate and 7 unused")
+        index, lo, hi, mid, rate = got
+        pairs, err = servo_pairs(index, lo, hi, mid, rate)
+        if err is None:
+            err = self.flight.params.update(pairs)
+        return b"" if err is None else self._refuse(err)
+
+    def _set_servo_mixer(self, payload, length):
+        got = msp.unpack_set_servo_mixer(payload, length)
+        if got is None:
+            return self._refuse("INAV_SET_SERVO_MIXER needs 7 bytes: rule, servo, input, rate, speed, condition")
+        index, servo, source, rate, speed, condition = got
+        if condition != 255:
+            return self._refuse("smix: logic conditions are not supported (condition must be 255, always)")
+        pairs, err = rule_pairs(self.flight.params, index, servo, source, rate, speed, SERVO_LINES)
+        if err is None:
+            err = self.flight.params.update(pairs)
+        return b"" if err is None else self._refuse(err)
 
     def _rc_order(self):
         # Betaflight's MSP_RC order: roll, pitch, yaw, throttle, then AUX1.. (receiver channels 5..)
