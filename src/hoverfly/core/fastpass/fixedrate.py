@@ -19,6 +19,8 @@ Formats (value = integer / 2**q):
   to +-4 rad (angle mode feeds their change forward at the loop rate: Q16 would step it by 8 mrad/s);
 - the I-term: Q26 (steps of 1.5e-8 of the mixer range); rate derivatives: Q7 (rad/s^2), clamped
   to 2**26;
+- D-min's boost and factor: Q15 (the boost capped at 4); anti-gravity's throttle speed: Q12 (1/s), its
+  boost Q10 (capped at 31), an I step capped at half the range before it is boosted;
 - gains and filter coefficients: a 15-bit mantissa m and a shift s, value = m / 2**s.
 A product is `floor(c * x / 2**s)` with |c| < 2**15 and |x| < 2**31; the viper twin splits x in
 16-bit halves (`_mul`) so no partial product passes 2**31 on a 32-bit port, and every sum stays below
@@ -74,7 +76,25 @@ DK_M = const(17)
 DK_S = const(18)
 DPT2 = const(19)
 MIX = const(76)  # roll, pitch, yaw weights per motor (Q14), eight motors
-CO_SIZE = const(100)
+AG_ON = const(100)  # anti-gravity
+AG_K_M = const(101)  # its PT2's stage gain
+AG_K_S = const(102)
+AG_G_M = const(103)  # ag_gain: the smoothed throttle speed (Q12, 1/s) to the boost (Q10)
+AG_G_S = const(104)
+AG_P_M = const(105)  # P's share of the boost (Q10 to Q10)
+AG_P_S = const(106)
+DM_RK_M = const(107)  # D-min's range PT2 (85 Hz) and its smoothing PT2 (35 Hz): stage gains
+DM_RK_S = const(108)
+DM_LK_M = const(109)
+DM_LK_S = const(110)
+DM = const(111)  # per axis, DM_SIZE from here: D-min
+DM_SIZE = const(5)
+DM_PCT = const(0)  # d_min / d_max, Q15; 0: D-min off on this axis
+DM_G_M = const(1)  # gyro acceleration (Q7) to the boost (Q15)
+DM_G_S = const(2)
+DM_S_M = const(3)  # setpoint acceleration (Q7) to the boost (Q15)
+DM_S_S = const(4)
+CO_SIZE = const(128)
 
 # ---- state layout (st, array "i")
 ST_AX = const(8)  # per axis: I (Q26), OUT, last gyro, last setpoint, relax y, D stage 1, D stage 2
@@ -93,7 +113,11 @@ S_TPA = const(28)
 S_SAT = const(29)
 S_MIX = const(30)
 S_TERMS_N = const(38)  # passes left until the PID terms and torques are written out again
-ST_SIZE = const(80)  # 40.. the viper twin's decoded inputs and staged outputs
+S_DM = const(40)  # per axis, 4 words: D-min's range PT2 (Q7) and smoothing PT2 (Q15) stages
+S_AG1 = const(52)  # anti-gravity's PT2 stages (Q12, 1/s) and the last throttle (Q16)
+S_AG2 = const(53)
+S_AG_THR = const(54)
+ST_SIZE = const(80)
 
 # flags argument
 F_MODE = const(3)
@@ -120,6 +144,9 @@ _INV16 = 1.0 / 65536.0
 _INV24 = 1.0 / 16777216.0
 _INV26 = 1.0 / 67108864.0
 _INV15 = 1.0 / 32768.0
+_HALF26 = const(0x2000000)  # 0.5 in Q26: an I step is capped here before anti-gravity boosts it
+_AG_MAX = const(31744)  # 31 in Q10 (pid.AG_BOOST_MAX)
+_DM_MAX = const(131072)  # 4 in Q15 (pid.DMIN_BOOST_MAX)
 
 _viper = None
 if IS_MICROPYTHON:
@@ -242,6 +269,32 @@ def rate_pass(co, st, io, flags, dt_us):
         tpa = _ONE15 - mul(co[TPA_M], thr - co[TPA_BP], co[TPA_S])
     changed = 2 if tpa != st[S_TPA] else 0
     st[S_TPA] = tpa
+    # anti-gravity: the throttle's speed, weighted to low throttle, through a PT2: I and P boosted by it
+    ag = 0
+    if co[AG_ON]:
+        x = thr - st[S_AG_THR]
+        st[S_AG_THR] = thr
+        rising = x > 0
+        if x < 0:
+            x = -x
+        x = mul(inv_dt, x, 4)  # Q12: at most 2**16 * 15625 / 16, below 2**26
+        w = (_ONE16 - thr) >> 1  # 1 - throttle, Q15: a coefficient, so below 2**15
+        if w > 32767:
+            w = 32767
+        x = mul(w, mul(w, x, 15), 15)
+        if rising:
+            x = mul(w, x, 16)
+        y = st[S_AG1]
+        y += mul(co[AG_K_M], x - y, co[AG_K_S])
+        st[S_AG1] = y
+        y2 = st[S_AG2]
+        y2 += mul(co[AG_K_M], y - y2, co[AG_K_S])
+        st[S_AG2] = y2
+        ag = mul(co[AG_G_M], y2, co[AG_G_S])
+        if ag > _AG_MAX:
+            ag = _AG_MAX
+        elif ag < 0:
+            ag = 0
     i_active = flags & F_I_ACTIVE
     sat = st[S_SAT]
     for k in range(3):
@@ -254,6 +307,8 @@ def rate_pass(co, st, io, flags, dt_us):
         p = mul(co[b + KP_M], err, co[b + KP_S])
         if co[TPA_P] and t != _ONE15:
             p = mul(t, p, 15)
+        if ag and k != 2:
+            p += mul(mul(co[AG_P_M], ag, co[AG_P_S]), p, 10)
         if i_active:
             i = st[sb + S_I]
             step = mul(co[b + KI_M], mul(dt_us, err, 8), co[b + KI_S])
@@ -269,6 +324,12 @@ def rate_pass(co, st, io, flags, dt_us):
                     step = 0
                 elif factor != _ONE15:
                     step = mul(factor, step, 15)
+            if ag:
+                if step > _HALF26:
+                    step = _HALF26
+                elif step < -_HALF26:
+                    step = -_HALF26
+                step += mul(ag, step, 10)
             if not sat or (step > 0) != (st[sb + S_OUT] > 0):
                 i += step
             lim = co[b + ILIM]
@@ -294,15 +355,45 @@ def rate_pass(co, st, io, flags, dt_us):
             y2 += mul(co[b + DK_M], y - y2, co[b + DK_S])
             st[sb + S_D2] = y2
             y = y2
-        d = mul(co[b + KD_M], y, co[b + KD_S])
-        if t != _ONE15:
-            d = mul(t, d, 15)
-        # feed-forward of the setpoint's change, and the static feed-forward (PIFF)
+        # the setpoint's acceleration (Q7): D-min's advance and the feed-forward
         x = mul(inv_dt, sp - st[sb + S_LS], 9)
         if x > _DERIV_LIM:
             x = _DERIV_LIM
         elif x < -_DERIV_LIM:
             x = -_DERIV_LIM
+        dm = DM + k * DM_SIZE
+        pct = co[dm + DM_PCT]
+        if pct:
+            # D-min: D at pct of D max at rest, raised by the gyro's or the stick's acceleration
+            sd = S_DM + k * 4
+            r = st[sd]
+            r += mul(co[DM_RK_M], y - r, co[DM_RK_S])
+            st[sd] = r
+            r2 = st[sd + 1]
+            r2 += mul(co[DM_RK_M], r - r2, co[DM_RK_S])
+            st[sd + 1] = r2
+            if r2 < 0:
+                r2 = -r2
+            g = mul(co[dm + DM_G_M], r2, co[dm + DM_G_S])
+            a = x if x >= 0 else -x
+            a = mul(co[dm + DM_S_M], a, co[dm + DM_S_S])
+            if a > g:
+                g = a
+            if g > _DM_MAX:
+                g = _DM_MAX
+            g = pct + mul(_ONE15 - pct, g, 15)
+            q = st[sd + 2]
+            q += mul(co[DM_LK_M], g - q, co[DM_LK_S])
+            st[sd + 2] = q
+            q2 = st[sd + 3]
+            q2 += mul(co[DM_LK_M], q - q2, co[DM_LK_S])
+            st[sd + 3] = q2
+            if q2 < _ONE15:
+                y = mul(q2, y, 15)
+        d = mul(co[b + KD_M], y, co[b + KD_S])
+        if t != _ONE15:
+            d = mul(t, d, 15)
+        # feed-forward of the setpoint's change, and the static feed-forward (PIFF)
         f = mul(co[b + KF_M], x, co[b + KF_S]) + mul(co[b + KST_M], sp, co[b + KST_S])
         st[sb + S_LS] = sp
         out = p + (i >> 10) + d + f
@@ -438,6 +529,16 @@ class FixedRate:
             pt2 = lp._active is lp._pt2
             co[b + DK_M], co[b + DK_S] = coef(lp._pt2.k if pt2 else lp._pt1.k)
             co[b + DPT2] = 1 if pt2 else 0
+            dm = DM + k * DM_SIZE
+            co[dm + DM_PCT] = _q(pid.dmin_pct, _ONE15) if pid.dmin_on else 0
+            co[dm + DM_G_M], co[dm + DM_G_S] = coef(pid.dmin_gyro_gain * 256.0)  # Q7 in, Q15 out
+            co[dm + DM_S_M], co[dm + DM_S_S] = coef(pid.dmin_sp_gain * 256.0)
+        co[DM_RK_M], co[DM_RK_S] = coef(c.roll.dmin_range.k)
+        co[DM_LK_M], co[DM_LK_S] = coef(c.roll.dmin_lowpass.k)
+        co[AG_ON] = 1 if c.ag_gain != 0.0 else 0
+        co[AG_K_M], co[AG_K_S] = coef(c.ag_filter.k)
+        co[AG_G_M], co[AG_G_S] = coef(c.ag_gain * 0.25)  # Q12 in, Q10 out
+        co[AG_P_M], co[AG_P_S] = coef(c.ag_p_share)
         for m in range(8):
             w = MIX + 3 * m
             if m < mixer.n:
@@ -475,6 +576,14 @@ class FixedRate:
             else:
                 st[sb + S_D1] = _dec(lp._pt1.y, 128.0, _DERIV_LIM)
                 st[sb + S_D2] = 0
+            sd = S_DM + k * 4
+            st[sd] = _dec(pid.dmin_range.s1, 128.0, _DERIV_LIM)
+            st[sd + 1] = _dec(pid.dmin_range.y, 128.0, _DERIV_LIM)
+            st[sd + 2] = _dec(pid.dmin_lowpass.s1, 32768.0, _DM_MAX)
+            st[sd + 3] = _dec(pid.dmin_lowpass.y, 32768.0, _DM_MAX)
+        st[S_AG1] = _dec(c.ag_filter.s1, 4096.0, _DERIV_LIM)
+        st[S_AG2] = _dec(c.ag_filter.y, 4096.0, _DERIV_LIM)
+        st[S_AG_THR] = _dec(c._ag_last_thr, 65536.0, _ONE16)
         st[S_LAST_ROLL] = _dec(c._last_roll_sp, 16777216.0, _LIM24)
         st[S_LAST_PITCH] = _dec(c._last_pitch_sp, 16777216.0, _LIM24)
         st[S_DT] = 0
@@ -504,6 +613,14 @@ class FixedRate:
                 lp._pt2.y = st[sb + S_D2] / 128.0
             else:
                 lp._pt1.y = st[sb + S_D1] / 128.0
+            sd = S_DM + k * 4
+            pid.dmin_range.s1 = st[sd] / 128.0
+            pid.dmin_range.y = st[sd + 1] / 128.0
+            pid.dmin_lowpass.s1 = st[sd + 2] * _INV15
+            pid.dmin_lowpass.y = st[sd + 3] * _INV15
+        c.ag_filter.s1 = st[S_AG1] / 4096.0
+        c.ag_filter.y = st[S_AG2] / 4096.0
+        c._ag_last_thr = st[S_AG_THR] * _INV16
         c._last_roll_sp = st[S_LAST_ROLL] * _INV24
         c._last_pitch_sp = st[S_LAST_PITCH] * _INV24
         c.tpa = st[S_TPA] * _INV15
