@@ -13,6 +13,7 @@ from array import array
 from hoverfly.compat import attr_room, const, ticks_diff
 from hoverfly.core.command.autopilot import Autopilot
 from hoverfly.core.command.commander import Commander
+from hoverfly.core.command.launch import Launch
 from hoverfly.core.command.motortest import MotorTest
 from hoverfly.core.config.params import Params
 from hoverfly.core.events import EV_GYRO_CALIBRATED, EV_RX_LOST, EV_RX_RESTORED, EventLog
@@ -32,7 +33,8 @@ from hoverfly.core.signals import Signals
 from hoverfly.core.stages.control import Controller
 from hoverfly.core.stages.estimator import BoardAlignment, ExternalAttitude, GyroCalibration, Mahony
 from hoverfly.core.stages.filters import AccelFilter, GyroFilter
-from hoverfly.core.stages.mixer import Mixer
+from hoverfly.core.stages.fwcontrol import FwController
+from hoverfly.core.stages.mixer import Mixer, is_plane
 from hoverfly.core.stages.output import HAS_ACCEL as _FIXED_OUT_ACCEL
 from hoverfly.core.stages.output import OutputStage
 from hoverfly.core.stages.rc import RcInput
@@ -61,6 +63,9 @@ class Flight:
         self.rc = RcInput()
         self.receiver = Receiver()
         self.controller = Controller(self.signals.pid_terms)
+        self.fw = FwController(self.signals.pid_terms)  # a plane's controller (is_plane: configure picks)
+        self._plane = False
+        self.launch = Launch(self.events)  # a plane's hand launch (the commander runs it)
         self.mixer = Mixer()
         self.fixed = FixedRate()  # the controller and mixer in fixed point (pid_math)
         self._fixed_on = False
@@ -90,6 +95,8 @@ class Flight:
         self.commander = Commander(self.events, self.rc, self.arming, self.failsafe, self.autopilot,
                                    self.controller, self.signals.accel_raw_m_s2)
         self.failsafe.commander = self.commander  # the failsafe writes its own bit of who flies
+        self.commander.plane_parts(self.fw, self.launch, self.signals.attitude, self.signals.accel_m_s2,
+                                   self.signals.rc_channels_us)
         self.config_session = 0  # 1 CLI, 2 MSP configurator, 4 maintenance, 8 maintenance on USB: any set blocks arming
         self.scheduler = Scheduler()
         self._pass_words = self.scheduler.stats
@@ -151,7 +158,13 @@ class Flight:
         self.receiver.configure(p)
         self.controller.configure(p, hz)
         self.mixer.configure(p)
-        self._fixed_on = self.fixed.configure(self.controller, self.mixer, hz, p.get("pid_math"), self.signals)
+        self._plane = is_plane(p.get("mixer_type"))
+        self.fw.configure(p)
+        if self._plane:  # the plane's controller runs in _control_float; the quad's fixed pass does not
+            self.fixed.release()
+            self._fixed_on = False
+        else:
+            self._fixed_on = self.fixed.configure(self.controller, self.mixer, hz, p.get("pid_math"), self.signals)
         self.logging_changed()
         # The IMU filters go with the rate loop: anywhere for "fixed", on "auto" where their viper twin loads.
         self._fixed_imu_on = self.fixed_imu.configure(
@@ -341,10 +354,20 @@ class Flight:
 
     def _control_float(self, dt_us, sp):
         """4. The controller and 5. the mixer in float (pid_math float, or where the fixed stage cannot run)."""
+        if self._plane:
+            self._control_plane(dt_us, sp)
+            return
         s = self.signals
         self.controller.update(sp, s.attitude, s.gyro_rad_s, self._dt_s(dt_us), self.commander.i_active,
                                self.mixer.saturated, s.torque_norm)
         self.mixer.update(sp.throttle_norm, s.torque_norm, self.commander.airmode_active, s.motor_norm)
+
+    def _control_plane(self, dt_us, sp):
+        """4. A plane's controller (core/stages/fwcontrol.py): stabilised roll, pitch, yaw into torque_norm for
+        the servo mixer in _outputs; its one motor takes the throttle (the plane's motor table is throttle only)."""
+        s = self.signals
+        self.fw.update(sp, s.attitude, s.gyro_rad_s, self._dt_s(dt_us), self.commander.i_active, s.torque_norm)
+        s.motor_norm[0] = sp.throttle_norm
 
     def _outputs(self, now_us):
         """6. Outputs: idle..max while armed, a bench motor test while disarmed, then the board's codec."""

@@ -13,6 +13,7 @@ import time
 
 from hoverfly.compat import ticks_diff
 from hoverfly.core.command.autopilot import DISABLED_NAMES, OVERRIDE_NAMES
+from hoverfly.core.command.launch import LAUNCH_EVENTS
 from hoverfly.core.config.params import Params
 from hoverfly.core.events import (
     DISARM_REASONS,
@@ -24,6 +25,7 @@ from hoverfly.core.events import (
     EV_FAILSAFE_STAGE1,
     EV_FAILSAFE_STAGE2,
     EV_IMU_FAULT,
+    EV_LAUNCH,
     EV_MODE,
     EV_RX_LOST,
     EVENT_NAMES,
@@ -49,7 +51,7 @@ _DEG = 180.0 / math.pi
 # event -> words for its detail code (the events the safety code records with a reason)
 DETAIL_NAMES = {EV_ARMED: SOURCE_NAMES, EV_AUTOPILOT_OVERRIDE: OVERRIDE_NAMES, EV_AUTOPILOT_DISABLED: DISABLED_NAMES,
                 EV_FAILSAFE_STAGE2: PROCEDURES, EV_IMU_FAULT: ("no_samples",) + FAULT_NAMES[1:],
-                EV_RX_LOST: CAUSES, EV_FAILSAFE_STAGE1: CAUSES}
+                EV_RX_LOST: CAUSES, EV_FAILSAFE_STAGE1: CAUSES, EV_LAUNCH: LAUNCH_EVENTS}
 
 
 def build_params(airframe, scenario, overrides):
@@ -228,6 +230,10 @@ class SimRun:
         if start:
             plane.reset(altitude_m=start.get("altitude_m", 50.0), yaw_rad=math.radians(start.get("heading_deg", 0.0)),
                         airspeed_m_s=start.get("airspeed_m_s", 13.0))
+        else:  # on the ground: it starts just above its contacts; settled on them before the core boots
+            idle = [0.0] * plane.n
+            for _ in range(self.loop_hz // 2):
+                plane.step(1.0 / self.loop_hz, idle)
         self.plane_judge = PlaneJudge(self.airframe["stall_speed_m_s"])
         self.hand_launch = HandLaunch(plane)
         return plane
@@ -313,6 +319,17 @@ class SimRun:
         realtime = self.realtime
         plane_judge = self.plane_judge
         hand_launch = self.hand_launch
+        # A plane that starts in flight is held still at its start (as on a launch rail) until it is armed: the
+        # core boots, calibrates its gyro and levels its estimator as on the ground, not while the untrimmed
+        # plane pitches and slows down (that calibrated its motion as gyro bias).
+        held = plane_judge is not None and bool(self.scenario.get("start"))
+        if held:  # what a plane held still reads: no rotation, gravity's specific force alone
+            roll0, pitch0, _ = v.euler_rad()
+            g = 9.80665
+            v.p = v.q = v.r = 0.0
+            v.fx = g * math.sin(pitch0)
+            v.fy = -g * math.sin(roll0) * math.cos(pitch0)
+            v.fz = -g * math.cos(roll0) * math.cos(pitch0)
         wall0 = perf()
 
         for k in range(n_steps):
@@ -344,7 +361,10 @@ class SimRun:
                 output_fs = not output_fs
                 self._output_event(output_fs)
             v.servo_cmd = servo_cmd[0]
-            v.step(dt, motor_cmd)
+            if held and flight.arming.armed:
+                held = False
+            if not held:
+                v.step(dt, motor_cmd)
             if plane_judge is not None:
                 hand_launch.tick(t)
                 plane_judge.add(t, v)
@@ -540,6 +560,8 @@ class SimRun:
             s = rc.rates[i].stick_for_rate(want)
         else:
             lim = rc.angle_limit_rad
+            if self.plane_judge is not None:  # a plane: full stick is its bank or pitch limit (fwcontrol.py)
+                lim = self.params.get("fw_max_pitch_deg" if axis == "pitch" else "fw_max_bank_deg") / _DEG
             want = value / _DEG
 
             def curve(x):
