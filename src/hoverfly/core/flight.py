@@ -81,6 +81,8 @@ class Flight:
         self._rpm_on = False
         self.fixed_rpm = None
         self._rpm_fixed = False
+        self.dyn_notch = None  # notches on the gyro spectrum's peaks (dyn_notch_count), made likewise
+        self._dyn_on = False
         self.output = OutputStage()
         self.servos = ServoMixer()  # a plane's surfaces (smix rules), read by _outputs
         self.arming = Arming(self.events)
@@ -169,7 +171,8 @@ class Flight:
         # The IMU filters go with the rate loop: anywhere for "fixed", on "auto" where their viper twin loads.
         self._fixed_imu_on = self.fixed_imu.configure(
             self.gyro_filter, self.accel_filter, self.signals, self.calibration.bias_rad_s,
-            self._fixed_on and (p.get("pid_math") == "fixed" or _FIXED_IMU_ACCEL))
+            self._fixed_on and p.get("dyn_notch_count") == 0  # the dynamic notch is float only, for now
+            and (p.get("pid_math") == "fixed" or _FIXED_IMU_ACCEL))
         self._fixed_out_on = self._fixed_on and (p.get("pid_math") == "fixed" or _FIXED_OUT_ACCEL)
         self._fixed_att_on = self.fixed_att.configure(
             self.mahony, self.signals.attitude, self.signals, hz, self._att_every,
@@ -190,6 +193,13 @@ class Flight:
         self.board.configure_outputs(p, self.motor_count, servo_count)
         self._out_more = self.mixer.servo_yaw or self.servos.count > 0 or self.output.bidir  # servos, ESC replies
         self._configure_rpm(p, hz)
+        if self.dyn_notch is None and p.get("dyn_notch_count") > 0:
+            from hoverfly.core.stages.dynnotch import DynNotch
+
+            self.dyn_notch = DynNotch()
+        if self.dyn_notch is not None:
+            self.dyn_notch.configure(p, hz)
+            self._dyn_on = self.dyn_notch.active
         self._rx_timeout_us = p.get("rx_timeout_ms") * 1000
         self._route()
         self._configured_at = p.changed
@@ -296,6 +306,8 @@ class Flight:
                     self.fixed_rpm.update(now_us)
                 else:
                     self.rpm_filter.update(s.gyro_rad_s, s.motor_rpm, now_us)
+            if self._dyn_on:  # last: it goes after what the RPM filter leaves
+                self.dyn_notch.update(s.gyro_rad_s)
         elif self.logger.active:  # no new sample: the log's integral_dt says so (Logger.update's full path)
             self.logger.full_pass_next()
         if self._att_fixed_now:  # the gyro average and the update every _att_every passes, as _estimate
@@ -507,6 +519,8 @@ class Flight:
             gf.notch[i].reset()
         if self.rpm_filter is not None:
             self.rpm_filter.reset()
+        if self.dyn_notch is not None:
+            self.dyn_notch.reset()
         self.mahony.reset(self.signals.attitude)
         self.controller.reset()
         self._first_imu = True
