@@ -186,6 +186,43 @@ def plot_motors(log, path):
     return _save(fig, path)
 
 
+def plot_servos(log, path):
+    """A plane's (or a tricopter's) servo widths from actuator_servos (PX4's control -1..1 back to µs), one panel
+    each, with the stabilised commands (hoverfly_pid's sum) that drive them; None for a log without servos."""
+    sv = log.topic("actuator_servos")
+    if sv is None or len(sv["t_s"]) < 2:
+        return None
+    cols = []
+    for i in range(8):
+        c = sv.get("control[%d]" % i)
+        if c is not None and np.any(c != 0.0):
+            cols.append((i, 1500.0 + 500.0 * c))
+    if not cols:
+        return None
+    pid = log.topic("hoverfly_pid")
+    fig, axs = plt.subplots(len(cols), 1, figsize=(11, 1.6 + 1.5 * len(cols)), sharex=True, squeeze=False)
+    axs = axs[:, 0]
+    for ax, (i, us) in zip(axs, cols, strict=True):
+        ax.plot(sv["t_s"], us, lw=0.8, color="tab:blue", label="servo %d (us)" % i)
+        ax.set_ylabel("servo %d (us)" % i)
+        ax.grid(alpha=0.3)
+        if pid is not None:
+            tw = ax.twinx()
+            for k, (axis, color) in enumerate((("roll", "tab:red"), ("pitch", "tab:green"), ("yaw", "tab:purple"))):
+                c = pid.get("sum[%d]" % k)
+                if c is not None:
+                    tw.plot(pid["t_s"], c, lw=0.5, color=color, alpha=0.6, label="stabilised %s" % axis)
+            tw.set_ylim(-1.05, 1.05)
+            tw.set_ylabel("command -1..1", fontsize=7)
+            if i == cols[0][0]:
+                tw.legend(loc="upper right", fontsize=7, ncol=3)
+        ax.legend(loc="upper left", fontsize=7)
+    _mark(log, axs)
+    axs[0].set_title("Servos (pulse width) against the stabilised roll, pitch and yaw commands", loc="left")
+    axs[-1].set_xlabel("time (s)")
+    return _save(fig, path)
+
+
 def _robust_lim(arrays, q=99.5):
     """y limits holding all but the rarest spikes of these arrays (q-th percentile of |x|, 20 % margin)."""
     vals = np.concatenate([np.abs(a[np.isfinite(a)]) for a in arrays if a is not None and len(a)] or [np.zeros(1)])
@@ -358,6 +395,7 @@ PLOTS = (
     ("attitude", plot_attitude, "Attitude"),
     ("rates", plot_rates, "Rates against setpoints"),
     ("motors", plot_motors, "Motors and throttle"),
+    ("servos", plot_servos, "Servos against the stabilised commands"),
     ("pid", plot_pid, "Rate PID terms"),
     ("gyro_spectrum", plot_gyro_spectrum, "Gyro spectrum"),
     ("spectrogram", plot_spectrogram, "Gyro spectrum against throttle"),

@@ -12,10 +12,11 @@ Topics at the logging rate, one frame per run: vehicle_attitude, vehicle_angular
 (the filtered gyro the PID used), vehicle_rates_setpoint, actuator_outputs (motor_out:
 0 = stop, idle..1), sensor_combined (the aligned IMU sample the pass read; gyro_integral_dt
 0 = no new sample that pass) and hoverfly_pid (P, I, D, F and sum per axis, the mode). input_rc is
-written for every new receiver frame; battery_status, vehicle_status, hoverfly_loop and
-hoverfly_link about ten times a second. Events (arming, failsafe, modes) become log strings,
-parameter changes become `P` messages after that run's samples, and a sync marker goes out
-about once a second.
+written for every new receiver frame; actuator_servos (PX4's: a plane's or a tricopter's servo
+widths as control -1..1 = 1000..2000 µs) at most every SERVO_LOG_US, looked at once a batch;
+battery_status, vehicle_status, hoverfly_loop and hoverfly_link about ten times a second. Events
+(arming, failsafe, modes) become log strings, parameter changes become `P` messages after that
+run's samples, and a sync marker goes out about once a second.
 
 Cost: on CPython the arrays the fast topics record live in the signals' pass record (core/
 logframe.py), laid out as the frame: a logged pass is one pack of the changing scalars (with the
@@ -175,6 +176,12 @@ HOVERFLY_LOOP = (
     ("uint32_t", "log_frames"),
     ("uint32_t", "log_dropped"),
 )
+ACTUATOR_SERVOS = (  # PX4's actuator_servos: control[i] = (servo_us[i] - 1500) / 500
+    ("uint64_t", "timestamp"),
+    ("uint64_t", "timestamp_sample"),
+    ("float[8]", "control"),
+)
+SERVO_LOG_US = 20000  # actuator_servos every 20 ms at most: the 50 Hz frame of an analog servo
 HOVERFLY_LINK = (
     ("uint64_t", "timestamp"),
     ("uint32_t", "frames"),
@@ -199,6 +206,7 @@ FORMATS = (
     ("vehicle_status", VEHICLE_STATUS),
     ("hoverfly_loop", HOVERFLY_LOOP),
     ("hoverfly_link", HOVERFLY_LINK),
+    ("actuator_servos", ACTUATOR_SERVOS),
 )
 FAST_TOPICS = ("vehicle_attitude", "vehicle_angular_velocity", "actuator_outputs", "sensor_combined",
                "vehicle_rates_setpoint", "hoverfly_pid")
@@ -343,6 +351,7 @@ class Logger:
         self._t64 = 0
         self._batch_n = self._batch  # frames a batch at this logging rate
         self._slow_every = 5  # batches between slow topics
+        self._servo_t = -SERVO_LOG_US  # log time of the last actuator_servos
         self._slow_left = 0
         self._ev_seen = 0
         self._rc_seen = 0
@@ -492,6 +501,7 @@ class Logger:
         self._ev_seen = 0
         self._rc_seen = 0
         self._slow_left = self._slow_every
+        self._servo_t = t0 - SERVO_LOG_US
         self._dropping = False
         # The slow topics go out as one run of their four D messages, packed in one go (_log_slow).
         fmt = "<"
@@ -757,6 +767,8 @@ class Logger:
         `_slow_every` batches (about ten times a second), the slow topics."""
         self._flush()
         self._check(now_us, t)
+        if t - self._servo_t >= SERVO_LOG_US:
+            self._log_servos(t)
         left = self._slow_left - 1
         if left > 0:
             self._slow_left = left
@@ -926,6 +938,23 @@ class Logger:
                 last[name] = v
                 w.param_change(name, v, t)
                 self.param_changes += 1
+
+    def _log_servos(self, t):
+        """actuator_servos for a craft with servos (a plane's smix, a tricopter's tail): each width as
+        PX4's control -1..1 (1000..2000 µs), servos past the ones in use 0."""
+        f = self.flight
+        sv = getattr(f, "servos", None)
+        n = sv.count if sv is not None else 0
+        if n == 0 and f.mixer.servo_yaw:
+            n = 1
+        if n == 0:
+            return
+        self._servo_t = t
+        us = f.signals.servo_us
+        values = [t]
+        for i in range(8):
+            values.append((us[i] - 1500) * 0.002 if i < n else 0.0)
+        self.writer.write_data(self._ids["actuator_servos"], t, values)
 
     def _log_slow(self, t):
         """The slow topics (SLOW_TOPICS, about ten times a second): one pack of their four messages
