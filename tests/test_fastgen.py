@@ -547,6 +547,16 @@ def test_a_module_table_is_imported_from_the_kernels_module_and_read_through_a_p
     assert "ptr8(_TABLE)" in text and "ptr16(_WORDS)" in text and "ptr8(_src_obj)" in text
 
 
+def test_a_drivers_read_stays_a_bool_method_with_its_counters_done_on_ints():
+    # drivers/mpu6050.py: `if read_burst(...):`, `self.samples += 1`, `return True` (the twin test,
+    # tests/portable/test_mpu6050_twins.py, holds its bits to the Python on both VMs)
+    text = fastgen.generate("mpu6050")
+    assert "def read(self, gyro_rad_s, accel_m_s2) -> bool:" in text
+    assert "self.samples = int(self.samples) + 1" in text and "self.bus_errors = int(self.bus_errors) + 1" in text
+    assert "if _result:\n        self._finish(gyro_rad_s, accel_m_s2)" in text
+    assert "float32_of" not in text  # the scale's product written out on integers
+
+
 def _bodies(text):
     return text[text.index("\n@micropython.viper\n"):]
 
@@ -591,7 +601,9 @@ def test_a_constant_of_2_30_is_built_at_run_time_not_written_as_a_literal(demo_d
 
 
 def _refused(body, why):
-    src = DEMO.replace("    return lo\n", body + "    return lo\n", 1)
+    src = DEMO.replace("    return lo\n", body + "    return lo\n", 1).replace(
+        "from hoverfly.compat import const\n",
+        "from hoverfly.compat import const\nfrom hoverfly.core.fastpass.fixedmath import float32_of\n")
     with pytest.raises(fastgen.FastGenError, match=why):
         fastgen.generate_source(src)
 
@@ -608,6 +620,7 @@ def test_what_the_generator_cannot_map_is_refused_with_the_reason():
     _refused("    lo = _dec(fin[0], 3.0, 5)\n", "power of two")
     _refused("    if 0 < mul(co[1], lo, 3) < 5:\n        lo = 1\n", "plain value")
     _refused("    m = fin[0]\n    lo = len(fin)\n", "only of an array from the call")
+    _refused("    k = float32_of(co[0], co[1])\n    lo = k + 1\n", "float32 scale")
     with pytest.raises(fastgen.FastGenError, match="one kernel a module"):
         fastgen.generate_source(DEMO + DEMO.split("class Demo")[0].split("# fastpass: ")[0]
                                 + "# fastpass: Demo.again co:i st:i fin:f fout:f\ndef again(co, st, io, n):\n"

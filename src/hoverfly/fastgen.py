@@ -34,6 +34,7 @@ STAGES = {
     "faults": "hoverfly.core.safety.failsafe",
     "rxcodec": "hoverfly.protocols.rxcodec",
     "crc": "hoverfly.protocols.crc",
+    "mpu6050": "hoverfly.drivers.mpu6050",
 }
 DIRECTIVE = "# fastpass:"
 HASH_LINE = "# fastgen source sha256: "
@@ -70,11 +71,11 @@ TAB_SIZE = {tab_size}
 # the shared arithmetic every kernel imports (core/fastpass/fixedmath.py): each name -> the intrinsic written out
 # in place of its call (Generator.mul, .dec, .mulw)
 INTRINSICS_MODULE = "hoverfly.core.fastpass.fixedmath"
-_INTRINSICS = {"mul": "_mul", "dec": "_dec", "mulw": "_mulw"}
+_INTRINSICS = {"mul": "_mul", "dec": "_dec", "mulw": "_mulw", "float32_of": "_f32"}
 
 # the names the written code uses itself (the decode's, the encode's, the table's)
 _RESERVED = {"_t", "_one", "_sx", "_lg", "_b", "_e", "_a", "_sg", "_pw", "_mm", "_sh", "_h", "_r", "_bits", "_ah",
-             "_al", "_bh", "_bl"}
+             "_al", "_bh", "_bl", "_nh", "_nl", "_mid", "_lo"}
 
 
 class FastGenError(Exception):
@@ -282,6 +283,8 @@ class Generator:
                 _fail(node, "unknown name %r (a local must be assigned before use)" % node.id)
             if kind[0] == "float":
                 _fail(node, "a float local (%r) is only compared with a constant or read as int(v * 2**q)" % node.id)
+            if kind[0] == "scale":
+                _fail(node, "a float32 scale (%r) only multiplies an integer into an 'f' array" % node.id)
             if kind[0] != "local":
                 _fail(node, "%r is an array: index it" % node.id)
             return kind[1]
@@ -610,6 +613,70 @@ class Generator:
         self.emit("    _bits = (((_pw + %d) << 23) + _mm) | _sg" % (126 - q))
         self.emit("%s[%s] = _bits" % (name, idx))
 
+    def scale_local(self, name, call, scope, rename):
+        """k = float32_of(m, e): a float32 scale held as its mantissa's 12-bit halves and its biased exponent,
+        only ever multiplied by an integer into an 'f' array (enc_scaled)."""
+        if len(call.args) != 2:
+            _fail(call, "float32_of takes (mantissa, exponent)")
+        if name in scope.names:
+            _fail(call, "%r is a float32 scale, set once" % name)
+        base = (rename or "") + "_s_" + name
+        mh, ml, e = [self.fresh(base + x, scope) for x in ("_mh", "_ml", "_e")]
+        m = self.atom(self.expr(call.args[0], scope), "m")
+        self.emit("%s = %s >> 12" % (mh, m))
+        self.emit("%s = %s & 0xFFF" % (ml, m))
+        self.emit("%s = %s" % (e, self.expr(call.args[1], scope)))
+        scope.names[name] = ("scale", mh, ml, e)
+
+    def scaled(self, node, scope):
+        """Whether node is an integer times a float32 scale local (either order)."""
+        if not (isinstance(node, ast.BinOp) and isinstance(node.op, ast.Mult)):
+            return False
+        return any(isinstance(x, ast.Name) and scope.names.get(x.id, ("",))[0] == "scale"
+                   for x in (node.left, node.right))
+
+    def enc_scaled(self, name, idx, node, scope):
+        """f[i] = n * k, k a float32 scale (float32_of(m, e)): the float32 nearest to n * m * 2**(e - 150), ties
+        to even, as the Python's product stores (exact in a float64 for |n| < 2**21, rounded once in a float32).
+        n * m is built from 12-bit halves as hi * 2**24 + lo (every partial below 2**26), rounded to 24 bits."""
+        left, right = node.left, node.right
+        if isinstance(left, ast.Name) and scope.names.get(left.id, ("",))[0] == "scale":
+            left, right = right, left
+        _, mh, ml, e = scope.names[right.id]
+        n = self.atom(self.expr(left, scope), "x")
+        self.emit("_bits = 0")
+        self.emit("if %s != 0:" % n)
+        self.emit("    _a = %s" % n)
+        self.emit("    _sg = 0")
+        self.emit("    if %s < 0:" % n)
+        self.emit("        _a = 0 - %s" % n)
+        self.emit("        _sg = _one << 31")
+        self.emit("    _nh = _a >> 12")
+        self.emit("    _nl = _a & 0xFFF")
+        self.emit("    _mid = _nh * %s + _nl * %s" % (ml, mh))
+        self.emit("    _lo = _nl * %s + ((_mid & 0xFFF) << 12)" % ml)
+        self.emit("    _h = _nh * %s + (_mid >> 12) + (_lo >> 24)" % mh)
+        self.emit("    _lo = _lo & 0xFFFFFF")
+        self.emit("    _sh = 0")
+        self.emit("    _mm = _lo  # _h == 0: the product is within 2**23..2**24, exact")
+        self.emit("    if _h != 0:  # _sh = the bit length of _h (below 22): the product's bits past the 24 kept")
+        self.emit("        _r = _h")
+        for k in (12, 6, 3, 1):
+            self.emit("        if _r >= %d:" % (1 << k))
+            self.emit("            _r = _r >> %d" % k)
+            self.emit("            _sh += %d" % k)
+        self.emit("        if _r >= 2:")
+        self.emit("            _sh += 1")
+        self.emit("        _sh += 1")
+        self.emit("        # to nearest, ties to even: half less one, plus the lowest bit kept")
+        self.emit("        _lo += (1 << (_sh - 1)) - 1 + ((_lo >> _sh) & 1)")
+        self.emit("        _mm = ((_h + (_lo >> 24)) << (24 - _sh)) | ((_lo & 0xFFFFFF) >> _sh)")
+        self.emit("        if _mm == 0x1000000:  # rounded up to the next power of two")
+        self.emit("            _mm = 0x800000")
+        self.emit("            _sh += 1")
+        self.emit("    _bits = _sg | ((%s + _sh) << 23) | (_mm & 0x7FFFFF)" % e)
+        self.emit("%s[%s] = _bits" % (name, idx))
+
     def inline(self, fn, call, scope):
         """A module helper written out at its call: its parameters bound to the arguments (arrays and
         constants by name, the rest as locals), its locals renamed, its returns into one result."""
@@ -767,6 +834,10 @@ class Generator:
                 self.emit("    %s = 0 - %s" % (key, mag))
                 scope.names[t.id] = ("float", out, mag, key)
                 return
+            if isinstance(t, ast.Name) and isinstance(s.value, ast.Call) and isinstance(s.value.func, ast.Name) \
+                    and self.intrinsics.get(self.resolve_function(s.value.func.id, scope)) == "_f32":
+                self.scale_local(t.id, s.value, scope, rename)
+                return
             if isinstance(t, ast.Name) and isinstance(s.value, ast.List):
                 texts = [self.expr(e, scope) for e in s.value.elts]
                 kind = scope.names.get(t.id)
@@ -797,6 +868,8 @@ class Generator:
                 idx = self.atom(self.expr(t.slice, scope), "i")
                 if code == "f" and self.is_float(s.value, scope):  # a float local stored: its bits as they are
                     self.emit("%s[%s] = %s" % (name, idx, scope.names[s.value.id][1]))
+                elif code == "f" and self.scaled(s.value, scope):
+                    self.enc_scaled(name, idx, s.value, scope)
                 elif code == "f":
                     self.enc(name, idx, s.value, s, scope)
                 else:
@@ -969,14 +1042,18 @@ class Generator:
         method = self.method_node()
         outer = _assigned_names(method)
         args = [a.arg for a in method.args.args]
-        returns_int = any(isinstance(n, ast.Return) and n.value is not None for n in ast.walk(method))
+        returned = [n.value for n in ast.walk(method) if isinstance(n, ast.Return) and n.value is not None]
+        returns_int = bool(returned)
+        # a method that answers True or False (a driver's read) stays a bool method
+        returns_bool = returns_int and all(isinstance(v, ast.Constant) and isinstance(v.value, bool)
+                                           for v in returned)
         scope = _Scope(outer | _RESERVED)
         self.add_tables(scope)
         table = self.table_arrays()
         if table:
             self.emit("_t = ptr32(self._tab)")
             self.emit("if _t[0] == 0 and _t[1] == 0:  # not configured: no addresses to write through")
-            self.emit("    return 0" if returns_int else "    return")
+            self.emit("    return False" if returns_bool else "    return 0" if returns_int else "    return")
         for k, (name, code) in enumerate(table):
             out = self.fresh_kernel(name, scope)
             self.emit("%s = %s(_t[%d] | ((_t[%d] << 16) << 16))" % (out, _POINTERS[code], 2 * k, 2 * k + 1))
@@ -996,6 +1073,12 @@ class Generator:
             if _is_docstring(s):
                 continue
             call, target = _kernel_call(s, self.kernel)
+            then = None
+            if call is None and isinstance(s, ast.If) and _kernel_call(ast.Expr(s.test), self.kernel)[0] is not None:
+                # if kernel(...): the kernel's result in a local, then the if on it as object code
+                call = s.test
+                target = self.fresh("result", scope)
+                then = ast.If(ast.Name(target, ast.Load()), s.body, s.orelse)
             if call is None:
                 s = _Folder(self.consts).visit(s)
                 if isinstance(s, ast.Assign) and len(s.targets) == 1 and isinstance(s.targets[0], ast.Name) \
@@ -1026,11 +1109,13 @@ class Generator:
                 result = target
                 scope.taken.add(target)
             self.block([b for b in kernel.body if not _is_docstring(b)], scope, result)
+            if then is not None:
+                self.emit(ast.unparse(_Folder(self.consts).visit(then)).replace("\n", "\n" + "    " * self.depth))
         if not called:
             raise FastGenError("%s.%s does not call %s" % (self.cls, self.method, self.kernel))
         self.prologue(mark, len(table) if table else None)
         sig = ", ".join(args)
-        head = "def %s(%s)%s:" % (self.method, sig, " -> int" if returns_int else "")
+        head = "def %s(%s)%s:" % (self.method, sig, " -> bool" if returns_bool else " -> int" if returns_int else "")
         return head + "\n" + "\n".join(self.lines) + "\n"
 
     def add_tables(self, scope):
@@ -1105,6 +1190,16 @@ class _Folder(ast.NodeTransformer):
 
     def __init__(self, consts):
         self.consts = consts
+
+    def visit_AugAssign(self, node):
+        """self.count += 1 as self.count = int(self.count) + 1: viper does no arithmetic between an object and
+        an int, so an attribute's += in a method's own code is done on ints (counters)."""
+        node = self.generic_visit(node)
+        if not isinstance(node.target, ast.Attribute):
+            return node
+        load = ast.Attribute(node.target.value, node.target.attr, ast.Load())
+        value = ast.BinOp(ast.Call(ast.Name("int", ast.Load()), [load], []), node.op, node.value)
+        return ast.copy_location(ast.Assign([node.target], value), node)
 
     def visit_Name(self, node):
         if isinstance(node.ctx, ast.Load) and node.id in self.consts:

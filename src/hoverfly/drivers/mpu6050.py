@@ -13,7 +13,8 @@ product specification PS-MPU-6000A-00 rev 3.4 §6.1/6.2.
 from array import array
 from struct import pack, unpack
 
-from hoverfly.compat import accel_module, const
+from hoverfly.compat import IS_MICROPYTHON, const
+from hoverfly.core.fastpass.fixedmath import float32_of
 from hoverfly.drivers.imu import (
     DEG_TO_RAD,
     GRAVITY_M_S2,
@@ -25,8 +26,6 @@ from hoverfly.drivers.imu import (
 )
 
 # read()'s state: one array('i') holding the plan (configure-time) and the frozen/saturated watch.
-# accel/mpu6050.py declares the same numbers for its viper twin (tests/portable/test_mpu6050_twins.py).
-# Every word the twins read back is >= 0: viper's ptr32 loads are zero-extended on a 64-bit port.
 ST_OFF = const(0)  # 0..2: body axis k's chip axis as a byte offset in the burst (0/2/4)
 ST_FLIP = const(3)  # 3..5: 1 if body axis k is that chip axis negated
 ST_BIAS = const(6)  # 6..8: that chip axis's gyro bias in 1/16 LSB, plus BIAS_OFFSET
@@ -52,8 +51,11 @@ _K_MIN = 2.0 ** -100
 _K_MAX = 2.0 ** 100
 
 
+# fastpass: MPU6050.read buf:B st:i gyro_rad_s:f@ accel_m_s2:f@
 def read_burst(buf, st, gyro_rad_s, accel_m_s2):
-    """The burst's watch and decode for read_python; accel/mpu6050.py `read` does the same inline.
+    """The burst's watch and decode, MPU6050.read's arithmetic. On MicroPython MPU6050.read is the viper
+    generated from read() with this written out in it (accel/mpu6050.py, hoverfly.fastgen): no bytecode
+    frame, no float object; tests/portable/test_mpu6050_twins.py holds the two equal bit for bit.
 
     buf: the 14-byte burst from ACCEL_XOUT_H (big-endian int16, RM §4.17-4.19: _H register first).
     st: MPU6050's array('i') of ST_SIZE (plan, then the watch state). Updates the watch (the same
@@ -115,9 +117,6 @@ def float32_parts(k):
     return (b & 0x7FFFFF) | 0x800000, (b >> 23) & 0xFF
 
 
-def float32_of(mantissa, exponent):
-    """The float32 value float32_parts gave (as this port's float; exact)."""
-    return unpack("<f", pack("<I", (exponent << 23) | (mantissa & 0x7FFFFF)))[0]
 
 
 def float32(x):
@@ -125,9 +124,14 @@ def float32(x):
     return array("f", (x,))[0]
 
 
-# On MicroPython the viper twin of MPU6050.read (accel/mpu6050.py: read_burst's work, inline) and
-# its address table's writer; else None and the Python read below. Tested equal.
-_viper = accel_module("mpu6050")
+# On MicroPython the viper MPU6050.read generated from read() and read_burst (accel/mpu6050.py) and its
+# address table's writer; else None and the Python read below. Tested equal.
+_viper = None
+if IS_MICROPYTHON:
+    try:  # absent (never generated) or a port without viper: the Python read runs
+        from hoverfly.accel import mpu6050 as _viper
+    except (ImportError, SyntaxError, NameError, ValueError, TypeError):  # TypeError: ViperTypeError
+        pass
 _read = _viper.read if _viper is not None else None
 _bind = _viper.bind if _viper is not None else None
 
@@ -185,9 +189,10 @@ class MPU6050(Imu):
         if _bind is not None:
             # the viper read's table of _buf's and _st's addresses: MicroPython's collector never
             # moves an object, and these two are never replaced or resized while the driver lives
-            self._tab = array("i", [0] * 4)
+            self._tab = array("i", [0] * _viper.TAB_SIZE)
             _bind(self._tab, 0, self._buf)
             _bind(self._tab, 1, self._st)
+            _bind(self._tab, 2, _viper.LOG2)
         self._plan()
 
     def probe(self):
@@ -294,9 +299,9 @@ class MPU6050(Imu):
 
         False (arrays untouched) on a bus error, which is counted in bus_errors.
         """
-        # On MicroPython the viper twin (accel/mpu6050.py `read`) stands in for this method (no
-        # bytecode frame: this one's 12 words would be taken from the heap at every call, py/objfun.c
-        # VM_MAX_STATE_ON_STACK); `read_python` keeps it.
+        # On MicroPython the viper generated from this method and read_burst (accel/mpu6050.py `read`)
+        # stands in for it (no bytecode frame: this one's 12 words would be taken from the heap at every
+        # call, py/objfun.c VM_MAX_STATE_ON_STACK); `read_python` keeps it.
         try:
             self._bus.readfrom_mem_into(self.address, _ACCEL_XOUT_H, self._buf)
         except OSError:

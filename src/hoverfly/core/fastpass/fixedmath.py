@@ -1,4 +1,4 @@
-"""The fixed-point kernels' shared arithmetic: the split product, the Q28 product and the float32 decode.
+"""The fixed-point kernels' shared arithmetic: the split product, the Q28 product, the float32 decode and scale.
 
 Every fixed-point kernel (fixedimu.py, fixedrate.py, fixedatt.py, ...) imports these, under the names it
 likes (`from hoverfly.core.fastpass.fixedmath import dec as _dec, mul as _mul`), so there is one Python
@@ -9,6 +9,8 @@ CPython and MicroPython twins run and what the generated code is held to, bit fo
 The limits below are the generated code's, not Python's: the viper product is split so that no partial
 result passes 2**31 on a 32-bit port (RP2040/RP2350), which holds only within them.
 """
+
+from struct import pack, unpack
 
 
 def mul(c, x, s):
@@ -36,3 +38,10 @@ def dec(x, scale, lim):
     if v <= -lim:
         return -lim
     return int(v)
+
+
+def float32_of(mantissa, exponent):
+    """The float32 of its parts: the mantissa with its hidden bit (2**23..2**24-1) and the biased exponent
+    (1..254); exact as this port's float. A kernel multiplies an integer n (|n| < 2**21) by it into an 'f' array:
+    n * k rounded once to float32 (a float64 product is exact), which the generated code builds on integers."""
+    return unpack("<f", pack("<I", (exponent << 23) | (mantissa & 0x7FFFFF)))[0]
