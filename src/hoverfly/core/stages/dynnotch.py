@@ -6,16 +6,18 @@ notches per axis applied, in place. Step 1 of the pass, last of the gyro filters
 
 As Betaflight: a sliding DFT (SDFT) of each axis over the last WINDOW samples, its bins between
 `dyn_notch_min_hz` and `dyn_notch_max_hz` (at most 0.48 x loop_hz) searched for their strongest local
-maxima, each peak's frequency interpolated between bins (Jacobsen's estimator on the peak's and its
-neighbours' complex values) and smoothed, the axis's notches (Q `dyn_notch_q` / 100) set to the peaks in
-frequency order. The SDFT takes every sample on every axis; the peak search and the notches' coefficients
-are one axis a pass, round-robin, as Betaflight spreads them. Betaflight's window is 72 bins at a
-decimated rate; this one is 32 samples at the loop rate (31 Hz bins at 1 kHz, 12 of them in 100..480 Hz):
-what a pass in Python can afford, with the interpolation giving the peak within a few Hz.
+maxima (of the Hann-windowed spectrum), each peak's frequency interpolated between bins (Jacobsen's
+estimator on the peak's and its neighbours' complex values) and smoothed, the axis's notches (Q
+`dyn_notch_q` / 100) set to the peaks in frequency order. The SDFT takes every sample on every axis;
+the peak search and the notches' coefficients are one axis a pass, round-robin, as Betaflight spreads
+them. Betaflight's window is 72 bins at a decimated rate; this one is 32 samples at the loop rate (31 Hz
+bins at 1 kHz, 12 of them in 100..480 Hz): what a pass in Python can afford, with the interpolation
+giving the peak within a few Hz.
 
-A peak counts when it stands out of its band: at least PEAK_OVER_MEAN times the mean magnitude of the
-searched bins. A notch with no peak to follow keeps its frequency and fades out (depth to 0 over about
-ten updates), so a quiet gyro is not notched at random and a peak that comes back is notched at once.
+A peak counts when it stands out of its band: at least PEAK_OVER_FLOOR times the band's noise floor (the
+magnitude a third of the searched bins stay below). A notch with no peak to follow keeps its frequency
+and fades out (depth to 0 over about ten updates), so a quiet gyro is not notched at random and a peak
+that comes back is notched at once.
 
 Float only: there is no fixed-point form yet, so with `dyn_notch_count` > 0 Flight runs the float gyro
 filters (the fixed IMU filter declines, as for the static notch); on MicroPython that pass allocates (see
@@ -28,7 +30,9 @@ from hoverfly.compat import const
 
 WINDOW = const(32)
 MAX_NOTCHES = const(3)
-PEAK_OVER_MEAN = 3.0  # a peak below this multiple of its band's mean magnitude is noise, not a resonance
+# A peak below this multiple of its band's noise floor (_floor) is noise, not a resonance: white noise's
+# bins (Rayleigh-distributed) pass 4 x their lower-third magnitude about once in 700.
+PEAK_OVER_FLOOR = 4.0
 SMOOTHING = 0.4  # each update moves a notch this fraction of the way to its peak (round-robin: every 3rd pass)
 WEIGHT_STEP = 0.1
 _DAMP = 0.9999  # the SDFT's pole radius: round-off cannot accumulate in a bin
@@ -45,7 +49,7 @@ class DynNotch:
         self.q = 3.0
         self.min_hz = 100.0
         self.max_hz = 480.0
-        self.k_lo = 1  # the bins searched, k_lo..k_hi (their neighbours are kept too)
+        self.k_lo = 2  # the bins searched, k_lo..k_hi (two neighbours each side are kept too)
         self.k_hi = 1
         self.cos_k = []
         self.sin_k = []
@@ -63,6 +67,7 @@ class DynNotch:
         self.state = [0.0] * (n * 4)
         self.next_axis = 0
         self._mag = []
+        self._sorted = []
         self._peaks = [0.0] * MAX_NOTCHES
         self._peak_mag = [0.0] * MAX_NOTCHES
 
@@ -76,17 +81,19 @@ class DynNotch:
         self.min_hz = min(float(params.get("dyn_notch_min_hz")), self.max_hz)
         bin_hz = loop_hz / WINDOW
         self.k_lo = max(1, int(self.min_hz / bin_hz + 0.5))
-        self.k_hi = max(self.k_lo, min(WINDOW // 2 - 1, int(self.max_hz / bin_hz + 0.5)))
-        bins = self.k_hi - self.k_lo + 3
+        self.k_lo = max(2, self.k_lo)
+        self.k_hi = max(self.k_lo, min(WINDOW // 2 - 2, int(self.max_hz / bin_hz + 0.5)))
+        bins = self.k_hi - self.k_lo + 5  # two more each side: the Hann window's and the peak test's neighbours
         self.cos_k = [0.0] * bins
         self.sin_k = [0.0] * bins
         for j in range(bins):
-            w = _TWO_PI * (self.k_lo - 1 + j) / WINDOW
+            w = _TWO_PI * (self.k_lo - 2 + j) / WINDOW
             self.cos_k[j] = math.cos(w)
             self.sin_k[j] = math.sin(w)
         self.re = [0.0] * (3 * bins)
         self.im = [0.0] * (3 * bins)
         self._mag = [0.0] * bins
+        self._sorted = [0.0] * bins
         self.reset()
 
     def reset(self):
@@ -139,32 +146,47 @@ class DynNotch:
                 im[o + j] = a * s + b * c
         self.at = at + 1 if at + 1 < WINDOW else 0
 
+    def _floor(self, bins):
+        """The band's noise floor: the lower third's top magnitude of the searched bins (a peak takes two or
+        three of the dozen bins, two peaks half of them: they must not lift the floor they are judged by)."""
+        mag = self._mag
+        srt = self._sorted
+        n = 0
+        for j in range(2, bins - 2):  # insertion sort into a list made at configure: nothing allocated
+            v = mag[j]
+            k = n - 1
+            while k >= 0 and srt[k] > v:
+                srt[k + 1] = srt[k]
+                k -= 1
+            srt[k + 1] = v
+            n += 1
+        return srt[n // 3]
+
     def _search(self, axis):
         """The axis's strongest peaks, interpolated, to its notches in frequency order."""
         bins = len(self.cos_k)
         o = axis * bins
         mag = self._mag
-        for j in range(bins):
-            r = self.re[o + j]
-            i = self.im[o + j]
-            mag[j] = math.sqrt(r * r + i * i)
-        mean = 0.0
+        re = self.re
+        im = self.im
+        # Hann-windowed magnitudes, from each bin and its neighbours (0.5 X[k] - 0.25 (X[k-1] + X[k+1])): the
+        # rectangular window's leakage from one strong peak would bury a second one
         for j in range(1, bins - 1):
-            mean += mag[j]
-        mean /= bins - 2
+            r = 0.5 * re[o + j] - 0.25 * (re[o + j - 1] + re[o + j + 1])
+            i = 0.5 * im[o + j] - 0.25 * (im[o + j - 1] + im[o + j + 1])
+            mag[j] = math.sqrt(r * r + i * i)
+        floor = self._floor(bins)
         peaks = self._peaks
         pmag = self._peak_mag
         for n in range(MAX_NOTCHES):
             peaks[n] = 0.0
             pmag[n] = 0.0
         bin_hz = self.loop_hz / WINDOW
-        for j in range(1, bins - 1):
+        for j in range(2, bins - 2):
             m = mag[j]
-            if m > mag[j - 1] and m >= mag[j + 1] and m > PEAK_OVER_MEAN * mean:
+            if m > mag[j - 1] and m >= mag[j + 1] and m > PEAK_OVER_FLOOR * floor:
                 # Jacobsen's estimator on the complex bins (the SDFT's are the window's DFT, rectangular):
                 # the offset from bin j is Re((X[j-1] - X[j+1]) / (2 X[j] - X[j-1] - X[j+1]))
-                re = self.re
-                im = self.im
                 nr = re[o + j - 1] - re[o + j + 1]
                 ni = im[o + j - 1] - im[o + j + 1]
                 dr = 2.0 * re[o + j] - re[o + j - 1] - re[o + j + 1]
@@ -172,7 +194,7 @@ class DynNotch:
                 dd = dr * dr + di * di
                 d = (nr * dr + ni * di) / dd if dd > 0.0 else 0.0
                 d = 0.5 if d > 0.5 else (-0.5 if d < -0.5 else d)
-                hz = (self.k_lo - 1 + j + d) * bin_hz
+                hz = (self.k_lo - 2 + j + d) * bin_hz
                 # keep the `count` strongest: replace the weakest held one
                 low = 0
                 for n in range(1, self.count):
