@@ -230,10 +230,15 @@ class SimRun:
         if start:
             plane.reset(altitude_m=start.get("altitude_m", 50.0), yaw_rad=math.radians(start.get("heading_deg", 0.0)),
                         airspeed_m_s=start.get("airspeed_m_s", 13.0))
-        else:  # on the ground: it starts just above its contacts; settled on them before the core boots
+        else:  # on the ground: it starts just above its contacts; settled on them before the core boots (the
+            # models tip slowly onto a wingtip contact, from rest, within 2 s), at least 3 s, until still, at most 10 s
             idle = [0.0] * plane.n
-            for _ in range(self.loop_hz // 2):
+            still = 0
+            for k in range(10 * self.loop_hz):
                 plane.step(1.0 / self.loop_hz, idle)
+                still = still + 1 if abs(plane.p) + abs(plane.q) + abs(plane.r) < 0.002 else 0
+                if k > 3 * self.loop_hz and still > self.loop_hz // 5:
+                    break
         self.plane_judge = PlaneJudge(self.airframe["stall_speed_m_s"])
         self.hand_launch = HandLaunch(plane)
         return plane
