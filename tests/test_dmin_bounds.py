@@ -20,7 +20,7 @@ _EXTREME = (
      ("p_pitch", 250), ("i_pitch", 250), ("d_pitch", 250), ("d_min_pitch", 249), ("d_yaw", 250), ("d_min_yaw", 100),
      ("d_min_gain", 100), ("d_min_advance", 200), ("ag_gain", 250), ("ag_cutoff_hz", 50), ("ag_p_gain", 250),
      ("iterm_limit", 500), ("pidsum_limit", 1000), ("tpa_mode", "pd"), ("iterm_relax", "off"),
-     ("dterm_lpf1_type", "pt2"), ("dterm_lpf1_hz", 0)),
+     ("dterm_lpf1_type", "pt2"), ("dterm_lpf1_hz", 0), ("angle_p_gain", 300), ("angle_ff", 200)),
     (("d_min_roll", 20), ("ag_gain", 80), ("ag_cutoff_hz", 2), ("iterm_relax", "rpy"), ("dterm_lpf1_hz", 500)),
 )
 
@@ -37,10 +37,12 @@ def test_d_min_and_anti_gravity_stay_within_32_bits_on_extreme_inputs(checked, s
         wild = n % 3 == 0
         pick = (lambda: rnd.choice(_WILD)) if wild else (lambda: rnd.uniform(-130.0, 130.0))
         sp.throttle_norm = rnd.choice((0.0, 1.0, 0.0, 1.0, 1e30, float("nan"), rnd.random()))
+        sp.roll_angle_rad = pick()
+        s.attitude.roll_rad = pick()
         for k in range(3):
             s.gyro_rad_s[k] = pick()
             sp.rate_rad_s[k] = pick()
-        sp.mode = 0
+        sp.mode = n % 3
         dt_us = rnd.choice((0, 1, 64, 1000, 20000, 10 ** 6))
         fx.update(sp, s.attitude, dt_us, rnd.random() < 0.9, rnd.random() < 0.5)
         for v in fx.st:

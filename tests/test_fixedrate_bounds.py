@@ -76,7 +76,7 @@ _EXTREME = (
     (("p_roll", 250), ("i_roll", 250), ("d_roll", 250), ("f_roll", 1000), ("p_pitch", 250), ("i_pitch", 250),
      ("d_pitch", 250), ("f_pitch", 1000), ("p_yaw", 250), ("i_yaw", 250), ("d_yaw", 250), ("f_yaw", 1000),
      ("ff_static_pct", 100.0), ("iterm_limit", 500), ("pidsum_limit", 1000), ("pidsum_limit_yaw", 1000),
-     ("angle_p_gain", 200), ("angle_ff", 200), ("angle_rate_limit", 2000), ("horizon_level", 100),
+     ("angle_p_gain", 300), ("angle_ff", 200), ("angle_rate_limit", 2000), ("horizon_level", 100),
      ("tpa_mode", "pd"), ("tpa_rate", 100), ("tpa_breakpoint", 1999), ("iterm_relax", "off"),
      ("dterm_lpf1_type", "pt2"), ("dterm_lpf1_hz", 0), ("mixer_type", "hexx")),
     (("tpa_breakpoint", 750), ("iterm_relax", "rpy"), ("iterm_relax_hz", 50), ("dterm_lpf1_hz", 500)),

@@ -116,7 +116,7 @@ PARAMS = (
     ("yaw_expo",             0,    0,     100,   "%",           LIVE,   "yaw expo"),
     # --- angle and horizon (the PIFF shape of seed 002)
     ("angle_limit",         60,    5,      90,   "deg",         LIVE,   "angle mode: tilt at full stick (seed 001: 5)"),
-    ("angle_p_gain",        50,    0,     200,   "0.1/s",       LIVE,   "angle mode: deg/s of rate per 0.1 deg of error"),
+    ("angle_p_gain",        50,    0,     300,   "0.1/s",       LIVE,   "angle mode: deg/s of rate per 0.1 deg of error"),
     ("angle_ff",            50,    0,     200,   "%",           LIVE,   "angle mode: feed-forward of the angle setpoint's speed"),
     ("angle_rate_limit",   500,   50,    2000,   "deg/s",       LIVE,   "angle mode: largest rate setpoint"),
     ("horizon_level",   50,    0,     100,   "%",           LIVE,   "horizon: levelling strength at centre stick"),
