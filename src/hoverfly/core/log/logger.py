@@ -182,6 +182,11 @@ ACTUATOR_SERVOS = (  # PX4's actuator_servos: control[i] = (servo_us[i] - 1500) 
     ("float[8]", "control"),
 )
 SERVO_LOG_US = 20000  # actuator_servos every 20 ms at most: the 50 Hz frame of an analog servo
+HOVERFLY_NOTCH = (  # with the slow topics, for a craft with ESC telemetry or a dynamic notch (`hoverfly log report`)
+    ("uint64_t", "timestamp"),
+    ("float[8]", "motor_hz"),  # each motor's rotation frequency from its eRPM, 0 without a valid reply
+    ("float[9]", "dyn_notch_hz"),  # the dynamic notches' centres, axis by axis (3 each), 0 = off
+)
 HOVERFLY_LINK = (
     ("uint64_t", "timestamp"),
     ("uint32_t", "frames"),
@@ -207,6 +212,7 @@ FORMATS = (
     ("hoverfly_loop", HOVERFLY_LOOP),
     ("hoverfly_link", HOVERFLY_LINK),
     ("actuator_servos", ACTUATOR_SERVOS),
+    ("hoverfly_notch", HOVERFLY_NOTCH),
 )
 FAST_TOPICS = ("vehicle_attitude", "vehicle_angular_velocity", "actuator_outputs", "sensor_combined",
                "vehicle_rates_setpoint", "hoverfly_pid")
@@ -775,6 +781,7 @@ class Logger:
         else:
             self._slow_left = self._slow_every
             self._log_slow(t)
+            self._log_notch(t)
 
     def _check(self, now_us, t):
         """Events since the last look (each batch, and at close with now_us None: stamped `t`)."""
@@ -938,6 +945,27 @@ class Logger:
                 last[name] = v
                 w.param_change(name, v, t)
                 self.param_changes += 1
+
+    def _log_notch(self, t):
+        """hoverfly_notch for a craft whose ESCs answer (bidirectional DShot) or with a dynamic notch: what the
+        RPM filter and the dynamic notch sit on, for the log report's spectrum."""
+        f = self.flight
+        dyn = getattr(f, "dyn_notch", None)
+        dyn = dyn if dyn is not None and dyn.active else None
+        if not f.output.bidir and dyn is None:
+            return
+        rpm = f.signals.motor_rpm
+        rf = getattr(f, "rpm_filter", None)
+        lost = rf.lost if rf is not None else 0
+        values = []
+        for m in range(8):
+            values.append(rpm[m] / 60.0 if m < f.motor_count and not lost & (1 << m) else 0.0)
+        out = [0.0, 0.0, 0.0]
+        for axis in range(3):
+            if dyn is not None:
+                dyn.centres_hz(axis, out)
+            values.extend(out)
+        self.writer.write_data(self._ids["hoverfly_notch"], t, values)
 
     def _log_servos(self, t):
         """actuator_servos for a craft with servos (a plane's smix, a tricopter's tail): each width as
