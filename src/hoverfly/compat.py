@@ -125,19 +125,6 @@ def ticks_elapsed_us(now_us, since_us):
     return d if d > 0 else 0
 
 
-def accel_module(name):
-    """hoverfly.accel.<name>, a stage's viper twins, on MicroPython; None elsewhere, and where it does not
-    load: a port without the viper emitter (compiling it raises SyntaxError, NameError or ValueError) or a
-    bundle built without it (ImportError). The portable stage then runs its Python twin."""
-    if not IS_MICROPYTHON:
-        return None
-    try:
-        package = __import__("hoverfly.accel." + name)
-    except (SyntaxError, ImportError, NameError, ValueError, TypeError):  # TypeError: ViperTypeError
-        return None
-    return getattr(package.accel, name)
-
-
 # MicroPython's hash-table sizes (py/map.c hash_allocation_sizes): an instance's attribute table takes the
 # next one up only when it is full, so a table is often nearly full, and in a full table a look-up that
 # misses (every method call: the instance is searched before its class) probes on to an empty slot.

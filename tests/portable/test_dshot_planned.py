@@ -22,7 +22,6 @@ from hoverfly.core.config.params import Params
 from hoverfly.core.stages.output import OutputEncoder
 from hoverfly.protocols import dshot
 from hoverfly.protocols.dshot import (
-    PLAN_FLOAT32,
     DshotCommandQueue,
     DshotEncoder,
     dshot_frame,
@@ -87,10 +86,9 @@ def _commands(rnd, count, k):
 def test_micropython_picks_the_viper_planned_encode_and_cpython_the_python_one():
     if IS_MICROPYTHON:
         assert dshot.encode_planned_f32 is dshot_viper.encode_planned
-        assert not dshot.FLOAT32  # the unix VM's floats are doubles
+        assert dshot_viper.FLOAT32 == 0  # the generated twin's look at the port's float: the unix VM's are doubles
     else:
         assert dshot.encode_planned_f32 is None
-        assert not dshot.FLOAT32
 
 
 def test_planned_encode_gives_encode_motors_words_and_clamp_counts():
@@ -193,6 +191,15 @@ def _tie_commands(span_fp, rnd):
 def test_viper_float32_products_round_as_a_float32_ports_do():
     if not IS_MICROPYTHON:
         return
+    # the generated twin asks its module's FLOAT32 at every call: set, it rounds as a float32 port (a Pico)
+    dshot_viper.FLOAT32 = 1
+    try:
+        _float32_products()
+    finally:
+        dshot_viper.FLOAT32 = 0
+
+
+def _float32_products():
     rnd = Lcg(41)
     spans = [1999 * 65536, 2047 * 65536, 131006464, 3 << 24, 0x5F5E1 << 7, 12345677, 1]
     for idle in (0.0, 5.5, 3.3, 37.1):
@@ -205,7 +212,6 @@ def test_viper_float32_products_round_as_a_float32_ports_do():
             low_fp = enc._low_fp
             plan = enc.plan(b"\x00\x01\x02\x03")
             plan[2] = span_fp
-            plan[3] |= PLAN_FLOAT32
             tests = _tie_commands(span_fp, rnd)
             ties += len(tests)
             for _ in range(400):
@@ -248,8 +254,7 @@ def test_viper_products_are_the_ports_float_products_exactly():
                 span_fp = int(_f32(span_fp))
             plan = DshotEncoder(1, False, 0.0, False).plan(b"\x00")
             plan[2] = span_fp
-            if float32:
-                plan[3] |= PLAN_FLOAT32
+            dshot_viper.FLOAT32 = 1 if float32 else 0
             tests = _tie_commands(span_fp, rnd) + list(EDGES)
             for _ in range(300):
                 tests.append((rnd.below(1 << 24) + 1) * 2.0 ** -(24 + rnd.below(30)))
@@ -260,7 +265,11 @@ def test_viper_products_are_the_ports_float_products_exactly():
                     continue
                 p = span_fp * t  # exact in a double: at most 51 significant bits
                 want = int(_f32(p)) if float32 else int(p)
-                assert _product_seen(plan, m, want), (span_fp, float32, t, want)
+                ok = _product_seen(plan, m, want)
+                dshot_viper.FLOAT32 = 0
+                assert ok, (span_fp, float32, t, want)
+                dshot_viper.FLOAT32 = 1 if float32 else 0
+    dshot_viper.FLOAT32 = 0
 
 
 # ------------------------------------------------------------------------- the board codec

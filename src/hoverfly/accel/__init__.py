@@ -5,8 +5,7 @@ Not portable code: viper compiles to the target's machine code, so mpy-cross nee
 uses one imports it on MicroPython only, inside try/except, and keeps its own Python code as the
 reference and the fallback; the twin tests check both give the same bits.
 
-imufilter, rate, att, output, sched, rc, faults, rxcodec, crc and mpu6050 are generated from their Python by
-hoverfly.fastgen (docs/fastpass.md) and are not in git (.gitignore); dshot is written by hand
-(docs/fastpass.md says why). addr.py holds what the generated ones share:
-`bind` and the encode's `LOG2` table.
+Every module here but addr.py is generated from its Python by hoverfly.fastgen (docs/fastpass.md;
+fastgen.STAGES names them) and is not in git (.gitignore). addr.py holds what they share: `bind` and the
+encode's `LOG2` table.
 """

@@ -28,12 +28,7 @@ disarmed (and, with `stop_at_zero`, a motor command of exactly 0 or below) is 0 
 
 from array import array
 
-from hoverfly.compat import accel_module, const, ticks_add, ticks_diff
-
-# The board codec's whole encode (OutputEncoder.write): `encode_planned` below, or its viper twin
-# on the float32 bits of an array('f'), which makes no float at all.
-_viper = accel_module("dshot")
-encode_planned_f32 = _viper.encode_planned if _viper is not None else None
+from hoverfly.compat import IS_MICROPYTHON, const, ticks_add, ticks_diff
 
 VALUE_MAX = const(2047)
 THROTTLE_MIN = const(48)  # 1..47 are commands; 48..2047 is the 2000-step throttle range
@@ -352,8 +347,7 @@ class DshotEncoder:
 
     def plan(self, lines):
         """The array('i') `encode_planned` follows for this encoder, motor k on line lines[k]."""
-        flags = (PLAN_STOP_AT_ZERO if self.stop_at_zero else 0) | (PLAN_BIDIR if self.bidir else 0) \
-            | (PLAN_FLOAT32 if FLOAT32 else 0)
+        flags = (PLAN_STOP_AT_ZERO if self.stop_at_zero else 0) | (PLAN_BIDIR if self.bidir else 0)
         tm = self.telemetry_motor
         p = array("i", [self.motor_count, self._low_fp, self._span_fp, flags, tm + 1 if 0 <= tm else 0]
                   + [0] * self.motor_count)
@@ -381,29 +375,22 @@ class DshotEncoder:
 
 
 # The plan `encode_planned` follows (array('i'), DshotEncoder.plan): the motor count, the fixed-point
-# range, the flags, the telemetry motor + 1, then each motor's output line. Every entry is >= 0 (a
-# viper ptr32 load of a negative one would come back zero-extended on a 64-bit port).
+# range, the flags, the telemetry motor + 1, then each motor's output line.
 PLAN_STOP_AT_ZERO = const(1)
 PLAN_BIDIR = const(2)
-PLAN_FLOAT32 = const(4)  # the port's float is float32: its products keep 24 significant bits
 PLAN_LINES = const(5)
 
 
-def _float_is_32():
-    one = float(1)
-    return one + one / 1073741824 == one  # 1 + 2**-30 rounds back to 1 in float32, not in a double
-
-
-FLOAT32 = _float_is_32()
-
-
+# fastpass: encode_planned motor_norm:f plan:i out_words:H
 def encode_planned(motor_norm, count, plan, out_words):
     """DshotEncoder.encode_motors' armed loop, planned: motor k's word goes to out_words[line k].
 
     motor_norm[0..count-1] (clamped to the plan's motor count) -> 16-bit words; returns
     moving | clamped << 8 (moving: words that are not the stop word; clamped: commands outside
-    0..1 or NaN). The same words as encode_motors for the same encoder; accel/dshot.py's
-    `encode_planned` is its viper twin on the float32 bits of an array('f').
+    0..1 or NaN). The same words as encode_motors for the same encoder. Its viper twin (accel/dshot.py,
+    generated from it by hoverfly.fastgen) reads an array('f')'s float32 bits and makes no float:
+    `int(span_fp * t)` is worked out on integers as this port's float product is (span_fp < 2**27,
+    t within 0..1 here); tests/portable/test_dshot_planned.py holds the two equal.
     """
     n = plan[0]
     if count < n:
@@ -443,6 +430,15 @@ def encode_planned(motor_norm, count, plan, out_words):
         out_words[plan[PLAN_LINES + i]] = (w << 4) | (c & 0xF)
     return moving | (clamped << 8)
 
+
+# The board codec's whole encode (OutputEncoder.write): on MicroPython the viper generated from
+# encode_planned, for an array('f') of commands; None elsewhere (encode_planned runs).
+encode_planned_f32 = None
+if IS_MICROPYTHON:
+    try:  # absent (never generated) or a port without viper: OutputEncoder.write runs the Python
+        from hoverfly.accel.dshot import encode_planned as encode_planned_f32  # noqa: F401 (output.py's)
+    except (ImportError, SyntaxError, NameError, ValueError, TypeError):  # TypeError: ViperTypeError
+        pass
 
 # ---------------------------------------------------------------------------------------------
 # Command queue
