@@ -38,8 +38,9 @@ def _run(m, roll=0.0, pitch=0.0, yaw=0.0, throttle=0.0, channels=None, armed=Tru
     torque = array("f", [roll, pitch, yaw])
     ch = channels if channels is not None else array("H", [1500] * 18)
     out = array("H", [0] * 8)
+    m.bind(torque, ch, out)
     for _ in range(passes):
-        m.update(torque, throttle, ch, DT_US, armed, out)
+        m.update(DT_US, armed, throttle)
     return out
 
 

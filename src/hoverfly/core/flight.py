@@ -85,6 +85,7 @@ class Flight:
         self._dyn_on = False
         self.output = OutputStage()
         self.servos = ServoMixer()  # a plane's surfaces (smix rules), read by _outputs
+        self.servos.bind(self.signals.torque_norm, self.signals.rc_channels_us, self.signals.servo_us)
         self.arming = Arming(self.events)
         self.motor_test = MotorTest(self.arming)
         self.failsafe = Failsafe(self.events)
@@ -401,8 +402,7 @@ class Flight:
         s = self.signals
         n = self.servos.count
         if n:  # smix rules: surfaces at their mid while disarmed (core/stages/servos.py)
-            self.servos.update(s.torque_norm, self._sp.throttle_norm, s.rc_channels_us, self.pass_dt_us, armed,
-                               s.servo_us)
+            self.servos.update(self.pass_dt_us, armed, self._sp.throttle_norm)
             self.board.write_servos(s.servo_us, n)
         elif self.mixer.servo_yaw:
             self.output.servos(self.mixer.servo_norm, 1, armed, s.servo_norm)
