@@ -15,9 +15,9 @@ bins at 1 kHz, 12 of them in 100..480 Hz): what a pass in Python can afford, wit
 giving the peak within a few Hz.
 
 A peak counts when it stands out of its band: at least PEAK_OVER_FLOOR times the band's noise floor (the
-magnitude a third of the searched bins stay below). A notch with no peak to follow keeps its frequency
-and fades out (depth to 0 over about ten updates), so a quiet gyro is not notched at random and a peak
-that comes back is notched at once.
+magnitude a third of the searched bins stay below) and PROMINENCE times the spectrum two bins either
+side. A notch with no peak to follow keeps its frequency and fades out (depth to 0 over about ten
+updates), so a quiet gyro is not notched at random and a peak that comes back is notched at once.
 
 Float only: there is no fixed-point form yet, so with `dyn_notch_count` > 0 Flight runs the float gyro
 filters (the fixed IMU filter declines, as for the static notch); on MicroPython that pass allocates (see
@@ -33,6 +33,10 @@ MAX_NOTCHES = const(3)
 # A peak below this multiple of its band's noise floor (_floor) is noise, not a resonance: white noise's
 # bins (Rayleigh-distributed) pass 4 x their lower-third magnitude about once in 700.
 PEAK_OVER_FLOOR = 4.0
+# ... and this multiple of the spectrum two bins either side: a sine's Hann main lobe falls to a quarter of
+# its peak there at worst, a bump of a sloping noise floor (the low-passes' skirt, the pilot's manoeuvres
+# leaking up) does not
+PROMINENCE = 3.0
 SMOOTHING = 0.4  # each update moves a notch this fraction of the way to its peak (round-robin: every 3rd pass)
 WEIGHT_STEP = 0.1
 _DAMP = 0.9999  # the SDFT's pole radius: round-off cannot accumulate in a bin
@@ -175,6 +179,8 @@ class DynNotch:
             r = 0.5 * re[o + j] - 0.25 * (re[o + j - 1] + re[o + j + 1])
             i = 0.5 * im[o + j] - 0.25 * (im[o + j - 1] + im[o + j + 1])
             mag[j] = math.sqrt(r * r + i * i)
+        mag[0] = mag[1]  # beyond the kept bins: their neighbours' (only the prominence test reads them)
+        mag[bins - 1] = mag[bins - 2]
         floor = self._floor(bins)
         peaks = self._peaks
         pmag = self._peak_mag
@@ -184,7 +190,8 @@ class DynNotch:
         bin_hz = self.loop_hz / WINDOW
         for j in range(2, bins - 2):
             m = mag[j]
-            if m > mag[j - 1] and m >= mag[j + 1] and m > PEAK_OVER_FLOOR * floor:
+            side = mag[j - 2] if mag[j - 2] > mag[j + 2] else mag[j + 2]
+            if m > mag[j - 1] and m >= mag[j + 1] and m > PEAK_OVER_FLOOR * floor and m > PROMINENCE * side:
                 # Jacobsen's estimator on the complex bins (the SDFT's are the window's DFT, rectangular):
                 # the offset from bin j is Re((X[j-1] - X[j+1]) / (2 X[j] - X[j-1] - X[j+1]))
                 nr = re[o + j - 1] - re[o + j + 1]
@@ -256,7 +263,7 @@ class DynNotch:
             gyro[axis] = x
 
     def centres_hz(self, axis, out):
-        """The axis's notch centres now, 0 for one that is off (logs and tests)."""
+        """The axis's notch centres now, 0 for one that is off or fading (below half depth: logs and tests)."""
         for n in range(self.count):
             k = axis * MAX_NOTCHES + n
-            out[n] = self.hz[k] if self.weight[k] > 0.0 else 0.0
+            out[n] = self.hz[k] if self.weight[k] >= 0.5 else 0.0
