@@ -36,6 +36,7 @@ STAGES = {
     "rxcodec": "hoverfly.protocols.rxcodec",
     "crc": "hoverfly.protocols.crc",
     "mpu6050": "hoverfly.drivers.mpu6050",
+    "dshot": "hoverfly.protocols.dshot",
 }
 DIRECTIVE = "# fastpass:"
 HASH_LINE = "# fastgen source sha256: "
@@ -76,7 +77,7 @@ _INTRINSICS = {"mul": "_mul", "dec": "_dec", "mulw": "_mulw", "float32_of": "_f3
 
 # the names the written code uses itself (the decode's, the encode's, the table's)
 _RESERVED = {"_t", "_one", "_sx", "_lg", "_b", "_e", "_a", "_sg", "_pw", "_mm", "_sh", "_h", "_r", "_bits", "_ah",
-             "_al", "_bh", "_bl", "_nh", "_nl", "_mid", "_lo"}
+             "_al", "_bh", "_bl", "_nh", "_nl", "_mid", "_lo", "_f32p"}
 
 
 class FastGenError(Exception):
@@ -161,6 +162,7 @@ class Generator:
             if code in _POINTERS and not k.startswith("__"):
                 self.tables[k] = code
         self.tables_used = set()
+        self.uses_float32 = False  # a kernel of the module needs FLOAT32 (float_product)
         self.directives = self._directives()
         if len([d for d in self.directives if d[4] != set(a for a, _ in d[3])]) > 1:
             raise FastGenError("%s: one kernel a module may use an address table" % self.path)
@@ -190,6 +192,7 @@ class Generator:
         self.depth = 1
         self.count = 0
         self.big = {}  # the large constants' locals: name -> how the prologue makes it
+        self.need_f32p = False  # whether the body asks the port's float width (float_product)
 
     # ---- the directives: "# fastpass: Class.method name:typecode ..." on the line above each kernel's def
     def _directives(self):
@@ -300,6 +303,8 @@ class Generator:
                 return "(0 - %s)" % self.expr(node.operand, scope)
             if isinstance(node.op, ast.Not):
                 return "(not %s)" % self.expr(node.operand, scope)
+            if isinstance(node.op, ast.Invert):
+                return "(~%s)" % self.expr(node.operand, scope)
             _fail(node, "unary %s" % type(node.op).__name__)
         if isinstance(node, ast.Compare) and len(node.ops) > 1:
             return self.chain(node, scope)
@@ -344,9 +349,14 @@ class Generator:
             if fn == "len" and len(node.args) == 1:
                 return self.length(node.args[0], scope)
             if fn == "int" and len(node.args) == 1 and isinstance(node.args[0], ast.BinOp) \
-                    and isinstance(node.args[0].op, ast.Mult) and self.is_float(node.args[0].left, scope):
+                    and isinstance(node.args[0].op, ast.Mult) and self.is_float(node.args[0].left, scope) \
+                    and self.const_value(node.args[0].right, scope) is not None:
                 q = _log2(self.const_value(node.args[0].right, scope), node)
                 return self.dec_bits(scope.names[node.args[0].left.id][1], q, (1 << 31) - 1, node)
+            if fn == "int" and len(node.args) == 1 and isinstance(node.args[0], ast.BinOp) \
+                    and isinstance(node.args[0].op, ast.Mult) and (self.is_float(node.args[0].left, scope)
+                                                                   or self.is_float(node.args[0].right, scope)):
+                return self.float_product(node.args[0], scope)
             if fn in self.functions:
                 result = self.inline(self.functions[fn], node, scope)
                 if isinstance(result, list):
@@ -614,6 +624,92 @@ class Generator:
         self.emit("    _bits = (((_pw + %d) << 23) + _mm) | _sg" % (126 - q))
         self.emit("%s[%s] = _bits" % (name, idx))
 
+    def float_const(self, name, c, node, scope):
+        """A float local set to a float32 constant (`t = 1.0`): its bits, magnitude and order key."""
+        bits = struct.unpack("<I", struct.pack("<f", c))[0]
+        if struct.unpack("<f", struct.pack("<I", bits))[0] != c or c != c:
+            _fail(node, "%r is not a float32" % c)
+        out, mag, key = scope.names[name][1:4]
+        self.emit("%s = %s" % (out, self.literal(bits, node)))
+        self.emit("%s = %s" % (mag, self.literal(bits & 0x7FFFFFFF, node)))
+        k = bits & 0x7FFFFFFF
+        self.emit("%s = %s" % (key, self.literal(-k if bits >> 31 else k, node)))
+
+    def float_product(self, node, scope):
+        """int(x * t): x an integer in 0..2**27-1, t a float local with |t| <= 1 (the kernel's own checks keep
+        it there, and finite): x * t truncated toward 0 as this port's float product is. A float64 port's
+        product is exact; a float32 port (_f32p, the generated module's FLOAT32) rounds x to 24 significant
+        bits, then the product, each to nearest, ties to even. Built from 12-bit partial products as
+        hi * 2**24 + lo (every partial below 2**29)."""
+        left, right = node.left, node.right
+        if self.is_float(left, scope):
+            left, right = right, left
+        if self.is_float(left, scope):
+            _fail(node, "int(x * t) takes one integer and one float local")
+        mag = scope.names[right.id][2]
+        sign = scope.names[right.id][1]
+        x = self.temp("px")
+        r = self.temp("p")
+        self.emit("%s = %s" % (x, self.expr(left, scope)))
+        self.emit("if _f32p and %s >= 0x1000000:  # a float32 port: the integer to 24 significant bits first" % x)
+        self.emit("    _sh = 1")
+        self.emit("    if %s >= 0x4000000:" % x)
+        self.emit("        _sh = 3")
+        self.emit("    elif %s >= 0x2000000:" % x)
+        self.emit("        _sh = 2")
+        self.emit("    _r = %s & ((1 << _sh) - 1)" % x)
+        self.emit("    _h = 1 << (_sh - 1)")
+        self.emit("    %s = %s >> _sh" % (x, x))
+        self.emit("    if _r > _h or (_r == _h and (%s & 1) != 0):" % x)
+        self.emit("        %s += 1" % x)
+        self.emit("    %s = %s << _sh" % (x, x))
+        self.emit("%s = 0" % r)
+        self.emit("if %s == 0x3F800000:  # 1.0" % mag)
+        self.emit("    %s = %s" % (r, x))
+        self.emit("elif %s != 0:" % mag)
+        self.emit("    _e = %s >> 23" % mag)
+        self.emit("    _mm = %s & 0x7FFFFF" % mag)
+        self.emit("    if _e == 0:  # subnormal: _mm * 2**-149")
+        self.emit("        _e = 1")
+        self.emit("    else:")
+        self.emit("        _mm = _mm | 0x800000")
+        self.emit("    _nh = %s >> 12" % x)
+        self.emit("    _nl = %s & 0xFFF" % x)
+        self.emit("    _mid = _nh * (_mm & 0xFFF) + _nl * (_mm >> 12)")
+        self.emit("    _lo = _nl * (_mm & 0xFFF) + ((_mid & 0xFFF) << 12)")
+        self.emit("    _h = _nh * (_mm >> 12) + (_mid >> 12) + (_lo >> 24)  # x * _mm = _h * 2**24 + _lo")
+        self.emit("    _lo = _lo & 0xFFFFFF")
+        self.emit("    _sh = 126 - _e  # t = _mm / 2**(_sh + 24)")
+        self.emit("    if _f32p and _h != 0:  # the product to 24 significant bits: _a of them past the 24 kept")
+        self.emit("        _a = 0")
+        self.emit("        _r = _h")
+        self.emit("        while _r != 0:")
+        self.emit("            _r = _r >> 1")
+        self.emit("            _a += 1")
+        self.emit("        if _a <= 24:")
+        self.emit("            _b = (_h << (24 - _a)) | (_lo >> _a)")
+        self.emit("            _r = _lo & ((1 << _a) - 1)")
+        self.emit("            _pw = 1 << (_a - 1)")
+        self.emit("            if _r > _pw or (_r == _pw and (_b & 1) != 0):")
+        self.emit("                _b += 1")
+        self.emit("        else:  # the bits dropped are _r's and all of _lo's")
+        self.emit("            _b = _h >> (_a - 24)")
+        self.emit("            _r = _h & ((1 << (_a - 24)) - 1)")
+        self.emit("            _pw = 1 << (_a - 25)")
+        self.emit("            if _r > _pw or (_r == _pw and (_lo != 0 or (_b & 1) != 0)):")
+        self.emit("                _b += 1")
+        self.emit("        _sh = _sh + 24 - _a  # the rounded product is _b * 2**_a / 2**(_sh + 24)")
+        self.emit("        if _sh < 0:")
+        self.emit("            %s = _b << (0 - _sh)" % r)
+        self.emit("        elif _sh < 31:")
+        self.emit("            %s = _b >> _sh" % r)
+        self.emit("    elif _sh < 31:")
+        self.emit("        %s = _h >> _sh" % r)
+        self.emit("if (%s >> 31) & 1:  # int() truncates toward 0" % sign)
+        self.emit("    %s = 0 - %s" % (r, r))
+        self.need_f32p = True
+        return r
+
     def scale_local(self, name, call, scope, rename):
         """k = float32_of(m, e): a float32 scale held as its mantissa's 12-bit halves and its biased exponent,
         only ever multiplied by an integer into an 'f' array (enc_scaled)."""
@@ -835,6 +931,9 @@ class Generator:
                 self.emit("    %s = 0 - %s" % (key, mag))
                 scope.names[t.id] = ("float", out, mag, key)
                 return
+            if isinstance(t, ast.Name) and self.is_float(t, scope) and self.const_value(s.value, scope) is not None:
+                self.float_const(t.id, self.const_value(s.value, scope), s, scope)
+                return
             if isinstance(t, ast.Name) and isinstance(s.value, ast.Call) and isinstance(s.value.func, ast.Name) \
                     and self.intrinsics.get(self.resolve_function(s.value.func.id, scope)) == "_f32":
                 self.scale_local(t.id, s.value, scope, rename)
@@ -1010,18 +1109,31 @@ class Generator:
             return False
         if var is not None:
             first = 0
+        # a tuple of constants (`for i in (0, 2, 4)`) whose variable the body does not assign: each copy reads
+        # its element as a constant (an array index at a fixed offset), as an unrolled range's index
+        values = None
+        if var is not None and isinstance(it, ast.Tuple) and var not in scope.names \
+                and not any(isinstance(n, ast.Name) and n.id == var and isinstance(n.ctx, ast.Store)
+                            for b in s.body for n in ast.walk(b)):
+            values = [self.const_value(e, scope) for e in it.elts]
+            if None in values:
+                values = None
         saved = {n: scope.names.get(n) for n in (index, var) if n is not None}
         for k, item in enumerate(items):
             if index is not None:
                 scope.names[index] = ("const", first + k)
-            if var is not None:
+            if values is not None:
+                scope.names[var] = ("const", values[k])
+            elif var is not None:
                 self.emit("%s = %s" % (self.target(var, scope, rename), item))
             self.block(s.body, scope, result, rename)
-        if index is not None:
-            if saved[index] is None:
-                del scope.names[index]
+        for n in (index, var if values is not None else None):
+            if n is None:
+                continue
+            if saved[n] is None:
+                del scope.names[n]
             else:
-                scope.names[index] = saved[index]
+                scope.names[n] = saved[n]
         return True
 
     # ---- the whole function
@@ -1142,6 +1254,9 @@ class Generator:
             if "_tb_%s[" % name in body:
                 pre.append("_tb_%s = %s(%s)" % (name, _POINTERS[self.tables[name]], name))
                 self.tables_used.add(name)
+        if self.need_f32p:
+            pre.append("_f32p = int(FLOAT32)")
+            self.uses_float32 = True
         if "_lg[" in body:
             if log2_slot is None:
                 pre.append("_lg = ptr8(LOG2)")
@@ -1331,6 +1446,8 @@ def module_text(g, label, digest):
     text = "The viper twin%s of %s as integer arithmetic on %s arrays' memory." % (
         "s" if len(twins) > 1 else "", ", ".join(twins), "their" if len(twins) > 1 else "its")
     head = _HEADER.format(source=label, twins=text, slots=slots, hash_line=HASH_LINE + digest, tab_size=tab_size)
+    if g.uses_float32:  # float_product: whether this port's float is float32 (its products keep 24 bits)
+        head += "\nFLOAT32 = 1 if 1.0 + 1.0 / 1073741824 == 1.0 else 0\n"
     if g.tables_used:  # the tables the kernels read, from the stage module (the generated code holds pointers to them)
         head += "\nfrom %s import %s\n" % (g.module_name, ", ".join(sorted(g.tables_used)))
     return head + "".join(bodies)
