@@ -27,6 +27,7 @@ STAGES = {
     "imufilter": "hoverfly.core.fastpass.fixedimu",
     "rpmfilter": "hoverfly.core.fastpass.fixedrpm",
     "rate": "hoverfly.core.fastpass.fixedrate",
+    "fw": "hoverfly.core.fastpass.fixedfw",
     "att": "hoverfly.core.fastpass.fixedatt",
     "sched": "hoverfly.core.scheduler",
     "output": "hoverfly.core.stages.output",
