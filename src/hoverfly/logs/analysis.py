@@ -212,3 +212,141 @@ def spectrogram_vs_throttle(signal, throttle, rate_hz, segment=256, bins=20):
         mat = acc / cnt[:, None]
     mat[cnt == 0] = np.nan
     return freq, edges, mat
+
+
+# ------------------------------------------------------------------ gyro notch filters (RPM filter, dynamic notch)
+def _p(log, name, default):
+    v = log.param(name, default)
+    return default if v is None else v
+
+
+def notch_frequencies(log):
+    """What the gyro's notches sat on over the log (hoverfly_notch, about 10 Hz): {"motor_hz": median
+    rotation frequency per motor with telemetry, "rpm_notches_hz": [(Hz, label)] the RPM filter's notches at
+    those medians (each harmonic the filter ran, in 0.48 x loop_hz), "dyn_notch_hz": per axis the medians of
+    its dynamic notches that were on}, or None without the topic."""
+    motor = log.vector("hoverfly_notch", "motor_hz", 8)
+    if motor is None or len(motor) == 0:
+        return None
+    dyn = log.vector("hoverfly_notch", "dyn_notch_hz", 9)
+    loop_hz = float(_p(log, "loop_hz", 1000))
+    harmonics = int(_p(log, "rpm_harmonics", 0))
+    min_hz = float(_p(log, "rpm_min_hz", 100))
+    medians = []
+    for m in range(8):
+        col = motor[:, m]
+        col = col[col > 0]
+        if len(col):
+            medians.append(float(np.median(col)))
+    rpm = []
+    for h in range(1, harmonics + 1):
+        for m, hz in enumerate(medians):
+            if min_hz < hz * h < 0.48 * loop_hz:
+                rpm.append((hz * h, "RPM filter: motor %d x%d" % (m + 1, h)))
+    dyn_hz = [[], [], []]
+    if dyn is not None and int(_p(log, "dyn_notch_count", 0)) > 0:
+        for axis in range(3):
+            for n in range(3):
+                col = dyn[:, 3 * axis + n]
+                col = col[col > 0]
+                if len(col) > len(dyn) // 4:  # on for at least a quarter of the log
+                    dyn_hz[axis].append(float(np.median(col)))
+    return {"motor_hz": medians, "rpm_notches_hz": rpm, "dyn_notch_hz": dyn_hz}
+
+
+def _biquad_response(b0, b1, b2, a1, a2, z1):
+    """H(z) of a normalised biquad at z**-1 = z1 (an array)."""
+    return (b0 + b1 * z1 + b2 * z1 * z1) / (1.0 + a1 * z1 + a2 * z1 * z1)
+
+
+def _notch_response(hz, q, loop_hz, weight, z1):
+    """The weighted RBJ notch the RPM filter and the dynamic notch run: 1 + weight (H - 1)."""
+    w = 2.0 * np.pi * hz / loop_hz
+    alpha = np.sin(w) / (2.0 * q)
+    inv = 1.0 / (1.0 + alpha)
+    h = _biquad_response(inv, -2.0 * np.cos(w) * inv, inv, -2.0 * np.cos(w) * inv, (1.0 - alpha) * inv, z1)
+    return 1.0 + weight * (h - 1.0)
+
+
+def gyro_filter_response(log, freq_hz, axis=0):
+    """The gyro filter chain's complex response at freq_hz (an array) as the log's parameters configure it
+    (core/stages/filters.py's low-passes and static notch, then the RPM filter's and the dynamic notch's
+    notches where they sat, notch_frequencies), on the given axis."""
+    from hoverfly.core.config.params import Params
+    from hoverfly.core.stages.filters import GyroFilter
+
+    loop_hz = float(_p(log, "loop_hz", 1000))
+    p = Params()
+    for name in ("gyro_lpf1_type", "gyro_lpf1_hz", "gyro_lpf2_hz", "gyro_notch1_hz", "gyro_notch1_cut"):
+        v = log.param(name)
+        if v is not None:
+            p.set(name, v)
+    g = GyroFilter()
+    g.configure(p, int(loop_hz))
+    z1 = np.exp(-2j * np.pi * np.asarray(freq_hz, dtype=float) / loop_hz)
+    h = np.ones_like(z1)
+    lpf = g.lpf1[0]._active
+    if hasattr(lpf, "b0"):
+        h *= _biquad_response(lpf.b0, lpf.b1, lpf.b2, lpf.a1, lpf.a2, z1)
+    elif hasattr(lpf, "s1"):  # PT2: two PT1 stages of gain k
+        h *= (lpf.k / (1.0 - (1.0 - lpf.k) * z1)) ** 2
+    else:
+        h *= lpf.k / (1.0 - (1.0 - lpf.k) * z1)
+    if g.lpf2_on:
+        k = g.lpf2[0].k
+        h *= k / (1.0 - (1.0 - k) * z1)
+    if g.notch_on:
+        n = g.notch[0]
+        h *= _biquad_response(n.b0, n.b1, n.b2, n.a1, n.a2, z1)
+    found = notch_frequencies(log)
+    if found is not None:
+        q = float(_p(log, "rpm_filter_q", 500)) * 0.01
+        weights = [float(_p(log, "rpm_weight%d_pct" % (i + 1), 100)) * 0.01 for i in range(3)]
+        for hz, label in found["rpm_notches_hz"]:
+            h *= _notch_response(hz, q, loop_hz, weights[int(label[-1]) - 1], z1)
+        q = float(_p(log, "dyn_notch_q", 300)) * 0.01
+        for hz in found["dyn_notch_hz"][axis]:
+            h *= _notch_response(hz, q, loop_hz, 1.0, z1)
+    return h
+
+
+def filter_delay_ms(log, at_hz=100.0, axis=0):
+    """The gyro filter chain's group delay at at_hz (ms): -d(phase)/d(omega) of gyro_filter_response."""
+    f = np.array([at_hz - 0.5, at_hz + 0.5])
+    h = gyro_filter_response(log, f, axis)
+    dphi = np.angle(h[1] / h[0])
+    return float(-dphi / (2.0 * np.pi * (f[1] - f[0])) * 1000.0)
+
+
+def motor_peak_attenuation(log, after_s=None):
+    """Per axis, at each motor's median rotation frequency (notch_frequencies) and its harmonics below
+    Nyquist: the raw and the filtered gyro's amplitude (deg/s) and the filtered over the raw in dB. Only
+    the part of the log where the craft was armed and the motors turned (motor_hz > 0 throughout a segment)
+    counts. [(axis, Hz, raw, filtered, dB)] or None without the motors' frequencies."""
+    found = notch_frequencies(log)
+    raw = log.vector("sensor_combined", "gyro_rad", 3)
+    filt = log.vector("vehicle_angular_velocity", "xyz", 3)
+    rate = log.rate_hz("sensor_combined")
+    if found is None or not found["motor_hz"] or raw is None or filt is None or rate <= 0:
+        return None
+    t = log.topic("sensor_combined")["t_s"]
+    motor = log.vector("hoverfly_notch", "motor_hz", 8)
+    tn = log.topic("hoverfly_notch")["t_s"]
+    spinning = np.interp(t, tn, (motor.max(axis=1) > 0).astype(float)) > 0.99
+    if after_s is not None:
+        spinning &= t >= after_s
+    if spinning.sum() < 512:
+        return None
+    hz = float(np.median(found["motor_hz"]))
+    out = []
+    for axis in range(3):
+        f, a = amplitude_spectrum(raw[spinning, axis] * _DEG, rate)
+        _, b = amplitude_spectrum(filt[spinning, axis] * _DEG, rate)
+        for h in (1, 2, 3):
+            if hz * h >= rate / 2:
+                break
+            k = int(np.argmin(abs(f - hz * h)))
+            k = k - 1 + int(np.argmax(a[k - 1 : k + 2]))  # the raw peak's own bin, next to the nearest
+            out.append((AXES[axis], round(float(f[k]), 1), float(a[k]), float(b[k]),
+                        round(float(20.0 * np.log10(b[k] / a[k])), 1)))
+    return out

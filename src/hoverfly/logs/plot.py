@@ -298,6 +298,7 @@ def plot_gyro_spectrum(log, path):
     if raw is None or rate <= 0 or len(raw) < 64:
         return None
     cuts = filter_cutoffs(log)
+    notches = analysis.notch_frequencies(log)
     styles = ("--", ":", "-.", (0, (5, 1, 1, 1)))
     fig, axs = plt.subplots(3, 1, figsize=(11, 7.5), sharex=True)
     for i, ax in enumerate(axs):
@@ -311,11 +312,20 @@ def plot_gyro_spectrum(log, path):
         for k, (hz, label) in enumerate(cuts):
             ax.axvline(hz, color="tab:red" if "dterm" not in label else "tab:gray", ls=styles[k % len(styles)],
                        lw=1.0, label=label)
+        if notches is not None:  # where the RPM filter's and the dynamic notch's notches sat (their medians)
+            for k, (hz, _label) in enumerate(notches["rpm_notches_hz"]):
+                ax.axvline(hz, color="tab:purple", lw=0.9, alpha=0.7,
+                           label="RPM filter: %d notches (motors' Hz x harmonic)" % len(notches["rpm_notches_hz"])
+                           if k == 0 else None)
+            for hz in notches["dyn_notch_hz"][i]:
+                ax.axvline(hz, color="tab:green", lw=1.2, ls="--", label="dynamic notch %.0f Hz" % hz)
         ax.set_ylabel(AXES[i] + " amplitude (deg/s)")
         ax.grid(alpha=0.3, which="both")
         ax.legend(loc="upper right", fontsize=8)
-    axs[0].set_title("Gyro amplitude spectrum, filter cut-offs marked (sampled at %.0f Hz: up to %.0f Hz shown)"
-                     % (rate, rate / 2), loc="left")
+    axs[0].set_title("Gyro amplitude spectrum, filter cut-offs and notches marked (sampled at %.0f Hz: up to %.0f "
+                     "Hz shown)\nthe gyro filters' delay at 100 Hz: %.2f ms (roll, from the log's parameters and "
+                     "where the notches sat)" % (rate, rate / 2, analysis.filter_delay_ms(log)),
+                     loc="left", fontsize=10)
     axs[-1].set_xlabel("frequency (Hz)")
     return _save(fig, path)
 

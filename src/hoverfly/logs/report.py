@@ -24,6 +24,36 @@ def _table(headers, rows):
     return "\n".join(out)
 
 
+def _gyro_filters(log):
+    """The gyro filters' section: their delay at 100 Hz per axis, and what they did to the motors' peaks."""
+    out = ["<h2>Gyro filters</h2>"]
+    delays = [analysis.filter_delay_ms(log, 100.0, axis) for axis in range(3)]
+    out.append("<p>Group delay of the gyro filter chain at 100 Hz (from the log's filter parameters, with the RPM "
+               "filter's and the dynamic notch's notches where they sat): roll %.2f ms, pitch %.2f ms, yaw %.2f ms."
+               "</p>" % tuple(delays))
+    found = analysis.notch_frequencies(log)
+    if found is None:
+        out.append("<p>No motor frequencies in this log (hoverfly_notch: bidirectional DShot off and no dynamic "
+                   "notch): the RPM filter's effect cannot be measured.</p>")
+        return out
+    if found["motor_hz"]:
+        out.append("<p>Motors' median rotation frequency (eRPM): %s Hz. RPM filter notches: %s.</p>" % (
+            ", ".join("%.1f" % hz for hz in found["motor_hz"]),
+            ", ".join("%.1f" % hz for hz, _ in found["rpm_notches_hz"]) or "none (rpm_harmonics 0, or below "
+            "rpm_min_hz)"))
+    dyn = ["%s %s" % (analysis.AXES[a], ", ".join("%.1f Hz" % hz for hz in found["dyn_notch_hz"][a]))
+           for a in range(3) if found["dyn_notch_hz"][a]]
+    if dyn:
+        out.append("<p>Dynamic notches (median centre while on): %s.</p>" % html.escape("; ".join(dyn)))
+    rows = analysis.motor_peak_attenuation(log)
+    if rows:
+        out.append("<p>The motors' peaks in the gyro while they turned: raw against filtered at the motors' median "
+                   "frequency and its harmonics (nearest spectrum bin).</p>")
+        out.append(_table(("axis", "frequency (Hz)", "raw (deg/s)", "filtered (deg/s)", "filtered / raw (dB)"),
+                          [(a, hz, "%.4f" % r, "%.4f" % f, db) for a, hz, r, f, db in rows]))
+    return out
+
+
 def write_report(log, out_dir):
     """Write plots and index.html into out_dir; returns {"index": path, "plots": [...], "steps": [...],
     "axes": [...]} (each step as `hoverfly fly --json` gives it, plus its time in the log)."""
@@ -76,6 +106,7 @@ def write_report(log, out_dir):
     else:
         parts.append("<p>No held stick step in this log (a stick moved at once by %d us or more and held for "
                      "%.1f s): nothing to measure.</p>" % (analysis.MIN_STEP_US, analysis.MIN_HOLD_S))
+    parts.extend(_gyro_filters(log))
     changed = [r for r in params_table(log) if r[4]]
     parts.append("<h2>Parameters that differ from the defaults</h2>")
     parts.append(_table(("name", "value", "default", "unit", ""), changed) if changed else "<p>none</p>")
