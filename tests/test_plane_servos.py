@@ -9,6 +9,7 @@ import math
 import pytest
 
 from hoverfly.sim.runner import SimRun
+from test_micropython import MICROPYTHON
 
 pytest.importorskip("jsbsim")
 
@@ -29,9 +30,9 @@ def _scenario(tmp_path, airframe, events, params=None, start=True, duration_s=4.
     return str(path)
 
 
-def _fly(path, airframe, log_path=None):
+def _fly(path, airframe, log_path=None, firmware="cpython"):
     """Fly it; returns (run, result, samples): per pass (t_s, armed, servo widths on the wire, roll deg)."""
-    run = SimRun(airframe, path, log_path=log_path)
+    run = SimRun(airframe, path, log_path=log_path, firmware=firmware, micropython=MICROPYTHON)
     samples = []
 
     def on_step(r):
@@ -113,3 +114,18 @@ def test_output_failsafe_puts_each_servo_at_its_own_centre_and_the_stick_comes_b
     held = [s for s in samples if 2.31 <= s[0] <= 2.49]
     assert held and all(s[2][:3] == [1520, 1500, 1500] for s in held)
     assert _at(samples, 2.7)[2][0] > 1560  # commands resumed: the aileron is the stick's again
+
+
+@pytest.mark.skipif(MICROPYTHON is None, reason="micropython not installed")
+def test_the_firmware_in_the_micropython_vm_drives_the_same_surfaces(tmp_path):
+    # the core in the VM (its generated viper servo kernel), its widths over the firmware bridge to the same servos
+    events = [ARM, (2.0, {"roll": 0.4}), (2.3, {"roll": 0.0, "pitch": -0.4}), (2.6, {"pitch": 0.0})]
+    path = _scenario(tmp_path, "trainer", events, duration_s=3.0)
+    _, result, vm = _fly(path, "trainer", firmware="micropython")
+    _, _, host = _fly(path, "trainer")
+    assert result["firmware_runtime"] == "micropython" and not result["crashed"]
+    for t in (1.9, 2.25, 2.55, 2.9):
+        a = _at(vm, t)[2][:3]
+        b = _at(host, t)[2][:3]
+        assert all(abs(x - y) <= 10 for x, y in zip(a, b, strict=True)), (t, a, b)
+    assert _at(vm, 2.25)[2][0] > 1530 and _at(vm, 2.55)[2][1] > 1530

@@ -193,6 +193,8 @@ def test_servo_widths_pass_through_clamped_to_what_a_servo_takes_and_bad_end_poi
     assert list(enc.servo_us[:2]) == [1700, 1250] and enc.clamped == 0
     enc.write_servos(array("H", [3000, 100]), 2, T0)
     assert list(enc.servo_us[:2]) == [2500, 500] and enc.clamped == 2
+    enc.write_servos(array("f", [float("nan"), 1712.6]), 2, T0)  # a bridge's floats: NaN is the servo's mid
+    assert list(enc.servo_us[:2]) == [1500, 1712] and enc.clamped == 3
     bad = _encoder(servos=1, servo0_min_us=1600, servo0_mid_us=1500)
     assert "servo 0" in bad.error
     assert bad.servo_mid[0] == 1500  # the failsafe width stays the servo's own mid

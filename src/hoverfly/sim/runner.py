@@ -37,6 +37,7 @@ from hoverfly.core.scheduler import PS_JITTER_MAX
 from hoverfly.core.stages.control import MODE_NAMES
 from hoverfly.core.stages.mixer import MIXER_TABLES
 from hoverfly.core.stages.rc import aux_channel, map_channels
+from hoverfly.core.stages.servos import ServoMixer
 from hoverfly.errors import UserError
 from hoverfly.logs.steps import measure_step
 from hoverfly.sim.airframes import load_airframe
@@ -187,7 +188,12 @@ class SimRun:
             raise UserError("--esc: " + err)
         self.board.set_escs(esc, self.airframe.get("motor_poles", 14))
         self.board.rotor_omega_rad_s = self.vehicle.omega
-        self.board.configure_outputs(self.params, self.vehicle.n, 1 if frame == "tri" else 0)
+        # the servo lines the core drives (its servo mixer's, or a tricopter's tail): a bridged firmware's
+        # widths land on these, with no Flight.configure here to set them up
+        mix = ServoMixer()
+        mix.configure(self.params)
+        servo_count = mix.count if mix.count else (1 if frame == "tri" else 0)
+        self.board.configure_outputs(self.params, self.vehicle.n, servo_count)
         self.flight = Flight(self.board, self.params)
         # Firmware bridge: with firmware other than "cpython" the flight runs in another
         # process (sim/bridge.py), or on a device at serial port `hil` (firmware "hil");

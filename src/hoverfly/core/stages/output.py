@@ -488,14 +488,14 @@ class OutputEncoder:
             n = count
         s = self.servo_us
         for i in range(n):
-            w = servo_us[i]
+            w = servo_us[i]  # whole µs (the servo mixer's array('H')), or a float from a bridge
             if w > _SERVO_MAX_US:
                 w = _SERVO_MAX_US
                 self.clamped += 1
-            elif w < _SERVO_MIN_US:
-                w = _SERVO_MIN_US
+            elif not (w >= _SERVO_MIN_US):  # below the range, or NaN: never a wrap
+                w = _SERVO_MIN_US if w < _SERVO_MIN_US else self.servo_mid[i]
                 self.clamped += 1
-            s[i] = w
+            s[i] = int(w)
 
     def tick(self, now_us):
         """The output timer's check; True while the output failsafe holds every line at its disarmed value.
