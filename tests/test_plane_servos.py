@@ -31,14 +31,15 @@ def _scenario(tmp_path, airframe, events, params=None, start=True, duration_s=4.
 
 
 def _fly(path, airframe, log_path=None, firmware="cpython"):
-    """Fly it; returns (run, result, samples): per pass (t_s, armed, servo widths on the wire, roll deg)."""
+    """Fly it; returns (run, result, samples): per pass (t_s, armed, servo widths on the wire, roll deg, the
+    motor's command as its ESC read it)."""
     run = SimRun(airframe, path, log_path=log_path, firmware=firmware, micropython=MICROPYTHON)
     samples = []
 
     def on_step(r):
         b = r.board
         samples.append((b.sim_us * 1e-6, r.flight.arming.armed, list(b.output.servo_us[:4]),
-                        math.degrees(r.vehicle.roll_rad)))
+                        math.degrees(r.vehicle.roll_rad), b.motor_cmd[0]))
 
     run.on_step = on_step
     result = run.run()
@@ -102,6 +103,19 @@ def test_disarmed_surfaces_sit_at_their_centres_whatever_the_sticks(tmp_path):
     run, result, samples = _fly(path, "trainer")
     assert not any(s[1] for s in samples)
     assert all(s[2][:3] == [1500, 1540, 1500] for s in samples if s[0] > 0.01)
+
+
+def test_disarmed_in_manual_the_surfaces_follow_the_sticks_for_a_preflight_check_and_the_motor_stays_stopped(
+        tmp_path):
+    # INAV's preflight check: MANUAL on AUX4 (channel 8), disarmed on the ground, each stick in turn
+    events = [(1.2, {"channel": "{ ch = 8, us = 1900 }"}), (1.5, {"roll": 0.6}), (1.8, {"roll": 0.0, "yaw": -0.6}),
+              (2.1, {"yaw": 0.0})]
+    path = _scenario(tmp_path, "trainer", events, params={"manual_ch": 8}, start=False, duration_s=2.5)
+    run, result, samples = _fly(path, "trainer")
+    assert not any(s[1] for s in samples)
+    assert _at(samples, 1.1)[2][:3] == [1500, 1500, 1500]  # before MANUAL: centred
+    assert _at(samples, 1.75)[2][0] > 1600 and _at(samples, 2.05)[2][2] < 1400
+    assert all(s[4] == 0.0 for s in samples)
 
 
 def test_output_failsafe_puts_each_servo_at_its_own_centre_and_the_stick_comes_back_after(tmp_path):

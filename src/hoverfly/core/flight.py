@@ -30,7 +30,7 @@ from hoverfly.core.safety.supervisor import Supervisor
 from hoverfly.core.scheduler import Scheduler
 from hoverfly.core.scheduler import fast_pass_stats as _pass_stats
 from hoverfly.core.signals import Signals
-from hoverfly.core.stages.control import Controller
+from hoverfly.core.stages.control import MODE_MANUAL, Controller
 from hoverfly.core.stages.estimator import BoardAlignment, ExternalAttitude, GyroCalibration, Mahony
 from hoverfly.core.stages.filters import AccelFilter, GyroFilter
 from hoverfly.core.stages.fwcontrol import FwController
@@ -401,8 +401,11 @@ class Flight:
         """_outputs' rarer part: a plane's servo mix (or a tricopter's tail), the ESCs' DShot replies."""
         s = self.signals
         n = self.servos.count
-        if n:  # smix rules: surfaces at their mid while disarmed (core/stages/servos.py)
-            self.servos.update(self.pass_dt_us, armed, self._sp.throttle_norm)
+        if n:  # smix rules (core/stages/servos.py)
+            sp = self._sp
+            # Disarmed the surfaces sit at their mids, but follow the sticks in MANUAL for the preflight
+            # check, as INAV's do (the motor stays stopped: _motor_test's SAFETY block).
+            self.servos.update(self.pass_dt_us, armed or sp.mode == MODE_MANUAL, sp.throttle_norm)
             self.board.write_servos(s.servo_us, n)
         elif self.mixer.servo_yaw:
             self.output.servos(self.mixer.servo_norm, 1, armed, s.servo_norm)

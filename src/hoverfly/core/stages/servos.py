@@ -15,8 +15,8 @@ rate +100 moves towards max on a positive command, the direction the simulator's
 (PRESETS, INAV's platform defaults) applies, so a plane always has its surfaces.
 
 Disarmed, every servo sits at its centre and the speed limits start again from centre, so arming never
-throws a surface. INAV moves surfaces disarmed in MANUAL for a preflight check; hoverfly keeps them
-centred until armed (docs/fixed-wing.md).
+throws a surface; in MANUAL the surfaces follow the sticks disarmed too, INAV's preflight check (Flight
+passes `live` for it: docs/fixed-wing.md).
 
 One kernel, `servo_mix`, in integers (2**19 units = ±500 µs of full travel), serves both runtimes: the
 servo's output is whole microseconds, so a float stage would only round to the same widths. On CPython the
@@ -359,9 +359,10 @@ class ServoMixer:
         for i in range(MAX_RULES):
             st[_S_RULE + i] = 0
 
-    def update(self, dt_us, armed, throttle_norm):
-        """The bound servo widths from this pass's commands; every servo at its mid while disarmed."""
-        if not armed:
+    def update(self, dt_us, live, throttle_norm):
+        """The bound servo widths from this pass's commands while `live` (armed, or disarmed in MANUAL);
+        otherwise every servo at its mid."""
+        if not live:
             self._disarmed()
             return
         self._was_armed = True
