@@ -1179,10 +1179,19 @@ class Generator:
         # the method's own locals it hands the kernel as numbers are ints from their first assignment (viper
         # does no arithmetic between an object and an int)
         int_locals = set()
+        # the address table's arrays as the method names them (`self._st`): its own code reads their elements
+        # through the table's pointers (`self._st[22]` as st[22]), not through the object
+        table_loads = {}
         for s in method.body:
             call, _ = _kernel_call(s, self.kernel)
+            if call is None and isinstance(s, ast.If):
+                call = _kernel_call(ast.Expr(s.test), self.kernel)[0]
             if call is not None:
                 int_locals = {a.id for a in call.args if isinstance(a, ast.Name)} - set(args)
+                for p, a in zip(kparams, call.args, strict=False):  # a wrong count is refused below
+                    kind = scope.names.get(p)
+                    if p not in self.call_arrays and kind is not None and kind[0] == "array" and kind[2] != "f":
+                        table_loads[ast.unparse(a)] = kind[1:3]
         for s in method.body:
             if _is_docstring(s):
                 continue
@@ -1194,7 +1203,7 @@ class Generator:
                 target = self.fresh("result", scope)
                 then = ast.If(ast.Name(target, ast.Load()), s.body, s.orelse)
             if call is None:
-                s = _Folder(self.consts).visit(s)
+                s = _TableLoads(table_loads).visit(_Folder(self.consts).visit(s))
                 if isinstance(s, ast.Assign) and len(s.targets) == 1 and isinstance(s.targets[0], ast.Name) \
                         and s.targets[0].id in int_locals:
                     s.value = ast.Call(ast.Name("int", ast.Load()), [s.value], [])
@@ -1299,6 +1308,28 @@ def _array_code(scope, name):
     """The typecode of the kernel's array `name`, or None when the name is not an array."""
     kind = scope.names.get(name)
     return kind[2] if kind is not None and kind[0] == "array" else None
+
+
+class _TableLoads(ast.NodeTransformer):
+    """In a method's object code, an address-table array's element at a constant index read through the
+    table's pointer (the same array: the method hands it to the kernel, and configure bound it)."""
+
+    def __init__(self, loads):
+        self.loads = loads
+
+    def visit_Subscript(self, node):
+        node = self.generic_visit(node)
+        if not (isinstance(node.ctx, ast.Load) and isinstance(node.slice, ast.Constant)
+                and isinstance(node.slice.value, int)):
+            return node
+        found = self.loads.get(ast.unparse(node.value))
+        if found is None:
+            return node
+        name, code = found
+        text = "%s[%d]" % (name, node.slice.value)
+        if code not in _UNSIGNED:
+            text = "((%s << _sx) >> _sx)" % text
+        return ast.copy_location(ast.Name(text, ast.Load()), node)
 
 
 class _Folder(ast.NodeTransformer):
