@@ -13,6 +13,9 @@ Prints one JSON object:
     .venv/bin/python bench/sim_rtf.py [--scenario hover] [--airframe 5inch] [--runs 3] [--no-profile]
     .venv/bin/python bench/sim_rtf.py --firmware micropython [--duration 6]
     .venv/bin/python bench/sim_rtf.py --airframe trainer   # a plane: JSBSim + IMU model only, for now
+    HOVERFLY_NATIVE=1 .venv/bin/python bench/sim_rtf.py    # on the native twins (python -m hoverfly.native build)
+
+native_modules says how many of hoverfly/native.py's modules ran compiled (0: all from their .py files).
 
 With --firmware micropython the flight core runs in a MicroPython process over the lockstep bridge
 (sim/bridge.py): then the JSON gives the real-time factor and, per step, the CPU time of this process
@@ -27,6 +30,7 @@ import json
 import pstats
 import time
 
+from hoverfly import native
 from hoverfly.sim.airframes import load_airframe
 from hoverfly.sim.runner import SimRun, fly
 
@@ -137,6 +141,7 @@ def bridge(args):
             "firmware_cpu_us_per_step": round((c1.ru_utime - c0.ru_utime + c1.ru_stime - c0.ru_stime) / steps * 1e6,
                                               1),
             "firmware_pass_mean_us": r["firmware"]["pass_mean_us"],
+            "native_modules": len(native.report().get("native", ())),
         }
         if best is None or out["realtime_factor"] > best["realtime_factor"]:
             best = out
@@ -213,6 +218,7 @@ def main():
         "steps_per_s": round(best["sim_time_s"] * best["loop_hz"] / best["wall_time_s"]),
         "core_us_per_pass": best["loop"]["mean_us"],
         "setup_s": round(setup_s, 3),  # airframe, parameters, the IMU's noise table: once per flight
+        "native_modules": len(native.report().get("native", ())),
         "shares_pct": shares,
         "us_per_step": us_per_step,
     }
