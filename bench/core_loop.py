@@ -17,6 +17,10 @@ words, commander included (Betaflight's gyro/PID loop, its tasks apart).
     MICROPYPATH=src:.frozen micropython -X heapsize=512k bench/core_loop.py
     MICROPYPATH=src:.frozen micropython -X heapsize=512k bench/core_loop.py --rx-core1
     MICROPYPATH=src:.frozen micropython -X heapsize=512k bench/core_loop.py --rpm 1   # RPM filter, 1 harmonic
+    MICROPYPATH=src:.frozen micropython -X heapsize=512k bench/core_loop.py --plane   # mixer_type airplane
+
+With --plane the flight is an airplane (mixer_type airplane: the fixed-wing controller, core/stages/fwcontrol.py
+and its fixed-point twin, the servo mix of aileron, elevator and rudder, one motor), in ANGLE as the quad.
 
 With --rx-core1 the receiver's UART reads and CRSF parsing are core 1's (`rx_core1`, core/stages/rxcore.py): the
 codec's RxCore polls the bench board before every other pass, outside the timing (on a Pico it runs on the
@@ -40,13 +44,21 @@ if sys.implementation.name == "micropython":
                   "core.stages.mixer", "core.stages.pid", "accel.rate", "core.fastpass.fixedrate",
                   "core.safety.arming", "accel.faults", "core.safety.failsafe", "accel.rc", "core.stages.rc",
                   "accel.sched", "core.scheduler", "core.signals", "accel.output", "accel.dshot",
-                  "core.stages.output", "core.stages.receiver", "core.log.logger", "core.command.commander",
+                  "core.stages.output", "accel.crc", "accel.rxcodec", "protocols.rxcodec", "protocols.crsf",
+                  "core.stages.receiver", "core.log.logger", "core.command.commander",
                   "core.safety.supervisor", "core.flight"):
         gc.collect()
         try:
             __import__("hoverfly." + _name)
         except (SyntaxError, ImportError):  # an accel module on a port without viper (its module falls back),
             pass  # or a module an older tree does not have (the bench compares trees)
+        if _name == "core.stages.output" and "--plane" in sys.argv:  # a plane's stages, which Flight imports then
+            for _fw in ("core.stages.fwcontrol", "accel.fw", "core.fastpass.fixedfw", "core.command.launch"):
+                gc.collect()
+                try:
+                    __import__("hoverfly." + _fw)
+                except (SyntaxError, ImportError):
+                    pass
         if _name == "core.stages.output" and "--rpm" in sys.argv:  # the RPM filter's, which Flight imports then
             for _rpm in ("core.stages.rpmfilter", "accel.rpmfilter", "core.fastpass.fixedrpm"):
                 gc.collect()
@@ -77,6 +89,8 @@ from hoverfly.protocols.dshot import erpm_reply_word, gcr_encode
 
 # --rpm N: bidirectional DShot with the RPM filter at N harmonics, the ESCs answering every frame with eRPM
 RPM_HARMONICS = int(sys.argv[sys.argv.index("--rpm") + 1]) if "--rpm" in sys.argv else 0
+# --plane: an airplane's flight (the fixed-wing controller and the servo mix) instead of the quad's
+PLANE = "--plane" in sys.argv
 
 
 class BurstBus:
@@ -170,6 +184,8 @@ def armed_flight():
     f.params.set("gyro_cal_ms", 100)
     f.params.set("boot_grace_ms", 0)
     f.params.set("min_check", 1500)
+    if PLANE:
+        f.params.set("mixer_type", "airplane")
     if RPM_HARMONICS:
         f.params.set("dshot_bidir", 1)
         f.params.set("rpm_harmonics", RPM_HARMONICS)
@@ -284,9 +300,9 @@ def main():
     # loop_us_per_pass: the pass less its slow tasks, what Betaflight calls the gyro/PID loop (its `tasks`
     # command lists the receiver and the other tasks apart); the board runs both in the same period.
     print('{"runtime": "%s", "us_per_pass": %.2f, "bytes_per_pass": %.1f, "passes": %d, "passes_per_gc": %.1f, '
-          '"us_per_pass_after_gc": %.2f, "tasks_us_per_pass": %.2f, "loop_us_per_pass": %.2f, "rpm_harmonics": %d%s}'
+          '"us_per_pass_after_gc": %.2f, "tasks_us_per_pass": %.2f, "loop_us_per_pass": %.2f, "rpm_harmonics": %d%s%s}'
           % (runtime, best[0], best[1], passes, best[2], best[3], tasks, best[0] - tasks, RPM_HARMONICS,
-             ', "rx_core1": true' if core1 else ""))
+             ', "rx_core1": true' if core1 else "", ', "plane": true' if PLANE else ""))
 
 
 if __name__ == "__main__":

@@ -307,9 +307,10 @@ def _launch(**kw):
 def _push(la, t, forward_m_s2, ms, throttle_low=False, cos_tilt=1.0, sticks=False):
     """The 100 Hz task while the arm pushes forward at forward_m_s2 for ms; returns the time after."""
     acc = [forward_m_s2, 0.0, -9.8]
+    stick = [0.0, 0.3 if sticks else 0.05, 0.0]  # 0.05: within the centre the pilot's hand leaves
     for _ in range(ms // 10):
         t += 10000
-        la.update(t, True, acc, cos_tilt, throttle_low, sticks)
+        la.update(t, True, acc, cos_tilt, throttle_low, stick)
     return t
 
 
@@ -368,7 +369,7 @@ def test_the_launch_ends_at_its_timeout_and_when_disarmed():
     assert la.state == LAUNCH_OFF
     assert 2000000 <= t - thrown_at <= 2010000  # launch_time_ms from the throw
     la.arm(t)
-    la.update(t + 10000, False, [0.0, 0.0, -9.8], 1.0, False, False)
+    la.update(t + 10000, False, [0.0, 0.0, -9.8], 1.0, False, [0.0, 0.0, 0.0])
     assert la.state == LAUNCH_OFF
 
 

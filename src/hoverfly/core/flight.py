@@ -13,7 +13,6 @@ from array import array
 from hoverfly.compat import attr_room, const, ticks_diff
 from hoverfly.core.command.autopilot import Autopilot
 from hoverfly.core.command.commander import Commander
-from hoverfly.core.command.launch import Launch
 from hoverfly.core.command.motortest import MotorTest
 from hoverfly.core.config.params import Params
 from hoverfly.core.events import EV_GYRO_CALIBRATED, EV_RX_LOST, EV_RX_RESTORED, EventLog
@@ -33,7 +32,6 @@ from hoverfly.core.signals import Signals
 from hoverfly.core.stages.control import MODE_MANUAL, Controller
 from hoverfly.core.stages.estimator import BoardAlignment, ExternalAttitude, GyroCalibration, Mahony
 from hoverfly.core.stages.filters import AccelFilter, GyroFilter
-from hoverfly.core.stages.fwcontrol import FwController
 from hoverfly.core.stages.mixer import Mixer, is_plane
 from hoverfly.core.stages.output import HAS_ACCEL as _FIXED_OUT_ACCEL
 from hoverfly.core.stages.output import OutputStage
@@ -63,9 +61,13 @@ class Flight:
         self.rc = RcInput()
         self.receiver = Receiver()
         self.controller = Controller(self.signals.pid_terms)
-        self.fw = FwController(self.signals.pid_terms)  # a plane's controller (is_plane: configure picks)
+        # A plane's controller, its fixed-point twin and its hand launch: made by configure for a plane only
+        # (_plane_stages), so a multirotor neither imports them nor holds them.
+        self.fw = None
+        self.fixed_fw = None
+        self.launch = None
         self._plane = False
-        self.launch = Launch(self.events)  # a plane's hand launch (the commander runs it)
+        self._fw_fixed = False
         self.mixer = Mixer()
         self.fixed = FixedRate()  # the controller and mixer in fixed point (pid_math)
         self._fixed_on = False
@@ -98,8 +100,6 @@ class Flight:
         self.commander = Commander(self.events, self.rc, self.arming, self.failsafe, self.autopilot,
                                    self.controller, self.signals.accel_raw_m_s2)
         self.failsafe.commander = self.commander  # the failsafe writes its own bit of who flies
-        self.commander.plane_parts(self.fw, self.launch, self.signals.attitude, self.signals.accel_m_s2,
-                                   self.signals.rc_channels_us)
         self.config_session = 0  # 1 CLI, 2 MSP configurator, 4 maintenance, 8 maintenance on USB: any set blocks arming
         self.scheduler = Scheduler()
         self._pass_words = self.scheduler.stats
@@ -162,22 +162,28 @@ class Flight:
         self.controller.configure(p, hz)
         self.mixer.configure(p)
         self._plane = is_plane(p.get("mixer_type"))
-        self.fw.configure(p)
-        if self._plane:  # the plane's controller runs in _control_float; the quad's fixed pass does not
+        if self._plane:  # the plane's controller runs in _control_plane; the quad's fixed pass does not
+            self._plane_stages()
+            self.fw.configure(p)
             self.fixed.release()
             self._fixed_on = False
+            self._fw_fixed = self.fixed_fw.configure(self.fw, hz, p.get("pid_math"), self.signals)
         else:
+            if self.fixed_fw is not None:
+                self.fixed_fw.release()
+            self._fw_fixed = False
             self._fixed_on = self.fixed.configure(self.controller, self.mixer, hz, p.get("pid_math"), self.signals)
+        fast = self._fixed_on or self._fw_fixed  # the IMU filters and the estimator in fixed point with it
         self.logging_changed()
         # The IMU filters go with the rate loop: anywhere for "fixed", on "auto" where their viper twin loads.
         self._fixed_imu_on = self.fixed_imu.configure(
             self.gyro_filter, self.accel_filter, self.signals, self.calibration.bias_rad_s,
-            self._fixed_on and p.get("dyn_notch_count") == 0  # the dynamic notch is float only, for now
+            fast and p.get("dyn_notch_count") == 0  # the dynamic notch is float only, for now
             and (p.get("pid_math") == "fixed" or _FIXED_IMU_ACCEL))
-        self._fixed_out_on = self._fixed_on and (p.get("pid_math") == "fixed" or _FIXED_OUT_ACCEL)
+        self._fixed_out_on = fast and (p.get("pid_math") == "fixed" or _FIXED_OUT_ACCEL)
         self._fixed_att_on = self.fixed_att.configure(
             self.mahony, self.signals.attitude, self.signals, hz, self._att_every,
-            self._fixed_on and (p.get("pid_math") == "fixed" or _FIXED_ATT_ACCEL))
+            fast and (p.get("pid_math") == "fixed" or _FIXED_ATT_ACCEL))
         self.motor_count = self.mixer.n
         if p.get("arm_source") == "seed001":
             # Seed 001: the arm channel above 1500 µs arms (the range rule, with no upper end).
@@ -221,6 +227,21 @@ class Flight:
             self.fixed_rpm = FixedRpmFilter()
         self._rpm_fixed = self.fixed_rpm is not None and self.fixed_rpm.configure(
             self.rpm_filter, self.signals, self._fixed_imu_on)
+
+    def _plane_stages(self):
+        """A plane's controller (float and fixed point) and hand launch, made at its first configure, and wired
+        to the commander (its pitch target, the launch and what the launch reads)."""
+        if self.fw is not None:
+            return
+        from hoverfly.core.command.launch import Launch
+        from hoverfly.core.fastpass.fixedfw import FixedFw
+        from hoverfly.core.stages.fwcontrol import FwController
+
+        self.fw = FwController(self.signals.pid_terms)
+        self.fixed_fw = FixedFw()
+        self.launch = Launch(self.events)
+        s = self.signals
+        self.commander.plane_parts(self.fw, self.launch, s.attitude, s.accel_m_s2, s.rc_channels_us)
 
     def configure_pending(self):
         """Parameters changed since configure() last ran (it runs in the 100 Hz task, while disarmed)."""
@@ -379,7 +400,10 @@ class Flight:
         """4. A plane's controller (core/stages/fwcontrol.py): stabilised roll, pitch, yaw into torque_norm for
         the servo mixer in _outputs; its one motor takes the throttle (the plane's motor table is throttle only)."""
         s = self.signals
-        self.fw.update(sp, s.attitude, s.gyro_rad_s, self._dt_s(dt_us), self.commander.i_active, s.torque_norm)
+        if self._fw_fixed:
+            self.fixed_fw.update(sp, s.attitude, dt_us, self.commander.i_active)
+        else:
+            self.fw.update(sp, s.attitude, s.gyro_rad_s, self._dt_s(dt_us), self.commander.i_active, s.torque_norm)
         s.motor_norm[0] = sp.throttle_norm
 
     def _outputs(self, now_us):
@@ -515,6 +539,8 @@ class Flight:
         self.fixed_imu.release()
         self.fixed_att.release()
         self.fixed.release()
+        if self.fixed_fw is not None:
+            self.fixed_fw.release()
         gf = self.gyro_filter
         for i in range(3):
             gf.lpf1[i].reset()
@@ -526,6 +552,8 @@ class Flight:
             self.dyn_notch.reset()
         self.mahony.reset(self.signals.attitude)
         self.controller.reset()
+        if self.fw is not None:
+            self.fw.reset()
         self._first_imu = True
         self.configure()  # the accelerometer filter's reset, the fixed stages from the clean float state
 

@@ -26,7 +26,6 @@ set here at each change of who flies, never in the pass).
 
 from hoverfly.compat import const
 from hoverfly.core.command.autopilot import AP_ENABLED
-from hoverfly.core.command.launch import LAUNCH_OFF, sticks_moved
 from hoverfly.core.events import EV_AIRMODE, EV_MODE
 from hoverfly.core.safety.failsafe import PROC_DROP, PROC_GLIDE, PROC_LAND, STAGE2
 from hoverfly.core.stages.control import MODE_ANGLE, MODE_MANUAL
@@ -200,7 +199,7 @@ class Commander:
         if rc.yaw_hold:
             rc.hold_heading(armed, yaw_rad)
         launch = self.launch
-        if launch is not None and (armed != self._was_armed or launch.state != LAUNCH_OFF):
+        if launch is not None and (armed != self._was_armed or launch.active()):
             self._launch_task(now_us, armed)
 
     def _launch_task(self, now_us, armed):
@@ -210,11 +209,10 @@ class Commander:
         if armed and not self._was_armed:
             launch.arm(now_us)
         self._was_armed = armed
-        if launch.state != LAUNCH_OFF:
+        if launch.active():
             rc = self.rc
-            launch.update(now_us, armed, self._accel_m_s2, self._attitude.cos_tilt, rc.throttle_low(),
-                          sticks_moved(rc.stick_raw))
-        if launch.state != LAUNCH_OFF:
+            launch.update(now_us, armed, self._accel_m_s2, self._attitude.cos_tilt, rc.throttle_low(), rc.stick_raw)
+        if launch.active():
             self.source |= SOURCE_LAUNCH
         else:
             self.source &= ~SOURCE_LAUNCH

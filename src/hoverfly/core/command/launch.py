@@ -93,8 +93,9 @@ class Launch:
             self._set(now_us, LAUNCH_WAIT, LAUNCH_EV_WAIT)
             self._restart_push(now_us)
 
-    def update(self, now_us, armed, accel_m_s2, cos_tilt, throttle_low, sticks_moved):
-        """Slow pass: advance the launch. Returns True when its state changed (the commander's set point)."""
+    def update(self, now_us, armed, accel_m_s2, cos_tilt, throttle_low, stick_raw):
+        """Slow pass: advance the launch (stick_raw: the pilot's roll, pitch, yaw sticks, -1..1). Returns True
+        when its state changed (the commander's set point)."""
         st = self.state
         if st == LAUNCH_OFF:
             return False
@@ -109,7 +110,7 @@ class Launch:
                 self._set(now_us, LAUNCH_THROWN, LAUNCH_EV_THROWN)
                 return True
             return False
-        if sticks_moved:
+        if sticks_moved(stick_raw):
             self._set(now_us, LAUNCH_OFF, LAUNCH_EV_STICKS)
             return True
         since = ticks_diff(now_us, self.since_us)
