@@ -7,14 +7,17 @@ servo mixer, several seeds each.
 - the receiver lost at cruise: failsafe stage 2 500 +- 50 ms after the last frame, the motor off, the wings
   level within 10 degrees from 2 s later on, the airspeed above the stall, and the glide down to the ground
   without a spin;
-- a steady wind with gusts, turns included: no stall.
+- a steady wind with gusts, turns included: no stall;
+- the firmware under the MicroPython VM (`--firmware micropython`) flies the bank steps as the fixed-point core
+  does in process.
 """
 
 import math
 
 import pytest
 
-from hoverfly.sim.runner import SimRun
+from hoverfly.sim.runner import SimRun, fly
+from test_micropython import MICROPYTHON
 
 AIRFRAMES = ("trainer", "wing")
 SEEDS = (1, 2)
@@ -107,3 +110,19 @@ def test_wind_and_gusts_in_angle_with_turns_never_stall_the_plane(airframe):
     r = SimRun(airframe, "wind", seed=1).run()
     assert not r["crashed"] and r["stalls"] == [] and r["spins"] == []
     assert r["altitude_m"]["min"] > 40.0
+
+
+@pytest.mark.skipif(MICROPYTHON is None, reason="micropython not installed")
+def test_the_micropython_firmware_flies_the_plane_as_the_fixed_point_core_does_in_process():
+    # The Pico's arithmetic (pid_math fixed: the fixed IMU filters, estimator and fixed-wing law) in process, and
+    # the firmware under the MicroPython VM over the bridge (its viper twins): the same flight, step for step.
+    cp = fly("bank-steps", "trainer", seed=1, overrides=(("pid_math", "fixed"),))
+    mp = fly("bank-steps", "trainer", seed=1, firmware="micropython", micropython=MICROPYTHON)
+    assert mp["firmware"]["runtime"] == "micropython" and mp["firmware"]["crc_errors"] == 0
+    assert not mp["crashed"] and mp["armed"] and mp["stalls"] == []
+    assert len(cp["steps"]) == len(mp["steps"]) == 4
+    for a, b in zip(cp["steps"], mp["steps"], strict=True):
+        assert a["t90_ms"] == b["t90_ms"] and abs(a["steady_error"] - b["steady_error"]) <= 0.01, (a, b)
+        if abs(b["to"] - b["from"]) == 30.0:
+            assert b["t90_ms"] <= 1000.0 and b["overshoot_pct"] <= 15.0 and abs(b["steady_error"]) <= 2.0, b
+    assert [(e["event"], e["t_s"]) for e in mp["events"]] == [(e["event"], e["t_s"]) for e in cp["events"]]
