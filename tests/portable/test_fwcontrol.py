@@ -281,8 +281,19 @@ def test_stage1_holds_level_at_the_last_throttle():
     assert r.sp.mode == MODE_ANGLE and r.sp.throttle_norm == 0.45 and r.fw.pitch_offset_rad == 0.0
 
 
-def test_a_multirotor_set_to_glide_lands_instead():
-    assert Rig(mixer="quadx", fs_procedure="glide").failsafe.procedure == PROC_LAND
+def test_glide_on_a_multirotor_is_refused_with_a_plain_reason_and_a_stored_one_lands():
+    p = Params()
+    err = p.set("fs_procedure", "glide")
+    assert err is not None and "plane" in err and "land or drop" in err and "\n" not in err
+    assert p.get("fs_procedure") == "land"  # nothing changed
+    assert p.set("failsafe_procedure", "glide") is not None  # Betaflight's/INAV's name too
+    assert p.set("mixer_type", "flying_wing") is None and p.set("fs_procedure", "glide") is None
+    # a stored glide loaded on a multirotor (Params.update, as Storage loads) lands it
+    q = Params()
+    assert q.update((("fs_procedure", "glide"),)) is None
+    fs = Failsafe(EventLog())
+    fs.configure(q)
+    assert fs.procedure == PROC_LAND
 
 
 def test_the_manual_switch_selects_manual_on_a_plane_only():

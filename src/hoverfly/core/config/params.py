@@ -10,6 +10,8 @@ Gains keep Betaflight's scales so a Betaflight tune is a sane start; stages conv
 to SI once, in configure().
 """
 
+from hoverfly.core.stages.mixer import is_plane
+
 LIVE = 0
 REBOOT = 1
 
@@ -742,6 +744,10 @@ class Params:
         """Store `value` under `name` (a table name or an alias); returns None on success or the
         one-line reason it was refused (nothing changed)."""
         key, value, err = check(name, value)
+        if err is None and key == "fs_procedure" and value == "glide" and not is_plane(self.stored("mixer_type")):
+            # Only a plane glides. (A stored glide loaded on a multirotor, through update(), lands it: Failsafe.)
+            err = ("fs_procedure = glide is a plane's failsafe (mixer_type airplane, flying_wing or vtail); "
+                   "a %s cannot glide: use land or drop" % self.stored("mixer_type"))
         if err is not None:
             return err
         self._store(key, value)
