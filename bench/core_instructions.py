@@ -1,7 +1,7 @@
 """The flight-core pass of bench/core_loop.py counted by callgrind instead of timed, on both runtimes.
 
-Run: `.venv/bin/python bench/core_instructions.py` (needs `valgrind` on PATH and the MicroPython VM,
-`.venv/bin/micropython` or `micropython` on PATH; about three minutes).
+Run: `.venv/bin/python bench/core_instructions.py [--micropython]` (needs `valgrind` on PATH and the MicroPython
+VM, `.venv/bin/micropython` or `micropython` on PATH; about three minutes, --micropython: that runtime only).
 bench/core_loop.py's µs per pass move by 10-30 % on this shared host from run to run; the number of
 instructions a pass executes does not, so this is the figure to compare two versions of the core by.
 Each runtime flies bench/core_loop.py's armed flight (armed_flight(): an MPU-6050 burst through the
@@ -9,7 +9,7 @@ driver, a CRSF frame every 4th pass, DShot words) and then steps it PASSES times
 steps it three times as often; the difference of the two runs' instruction counts, divided by
 2 * PASSES, is one pass. Garbage is collected as the rp2 main loop collects it (boards/rp2/main.run and
 bench/core_loop.py's timed_passes keep the same HeapWatch): once half of what the last collection freed
-is used up, with the heap bench/core_loop.py runs in (512 KB). The collections and the looks at the free
+is used up, with the heap bench/core_loop.py runs in (640 KB). The collections and the looks at the free
 heap (callgrind's inclusive counts of gc_collect and gc_info) are taken out of both runs: a pass is counted
 with the allocator working on the heap a board keeps, collection not. (Until 2026-12 the collector was off
 for all the counted passes, so the allocator's free-block search grew with 300 passes of garbage and
@@ -132,7 +132,9 @@ def main():
         result["micropython"] = {"error": "no micropython VM"}
     else:
         env = dict(os.environ, MICROPYPATH="%s:%s" % (os.path.join(root, "src"), here))
-        runtimes.insert(0, ("micropython", [mp, "-X", "heapsize=512k", me], env))
+        runtimes.insert(0, ("micropython", [mp, "-X", "heapsize=640k", me], env))
+    if "--micropython" in sys.argv:  # the Pico's figure alone, in half the time
+        runtimes = [r for r in runtimes if r[0] == "micropython"]
     for name, cmd, env in runtimes:
         result[name] = {"ir_per_pass": ir_per_pass(cmd, env, extra)}
     print(json.dumps(result))

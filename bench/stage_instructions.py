@@ -107,7 +107,7 @@ def child_counts(script, child_args):
     here = os.path.dirname(os.path.abspath(__file__))
     env = dict(os.environ, MICROPYPATH="%s:%s" % (os.path.join(os.path.dirname(here), "src"), here))
     with ThreadPoolExecutor(os.cpu_count() or 2) as ex:
-        runs = [ex.submit(_count, [mp, "-X", "heapsize=512k", os.path.abspath(script), "--child"] + list(a), env)
+        runs = [ex.submit(_count, [mp, "-X", "heapsize=640k", os.path.abspath(script), "--child"] + list(a), env)
                 for a in child_args]
         return [r.result() for r in runs], None
 
