@@ -44,6 +44,12 @@ from hoverfly.protocols.dshot import (
 from hoverfly.protocols.pulsetrain import AnalogPulseDecoder, DshotPulseDecoder
 
 ACT_AFTER_REPEATS = 6  # identical command frames before an ESC acts on a command
+# Throttle frames already decoded: word -> (bidirectional, throttle 0..1 outside 3D mode). A word's CRC,
+# kind and value are fixed by its 16 bits, so each throttle word is checked once a process (a hover sends a
+# few hundred different ones, 40 000 frames). WORD_CACHE = False decodes every frame (the test that the
+# cache changes no flight: tests/test_sim_speed.py).
+WORD_CACHE = True
+_THROTTLE_FRAMES = {}
 _RPM_PER_RAD_S = 60.0 / (2.0 * math.pi)
 
 
@@ -89,6 +95,15 @@ class SimEsc:
             # the last one's, and only a command frame, which clears this, can change the ESC's mode.
             self.frames += 1
             return self.throttle_norm
+        if WORD_CACHE and not self.mode_3d:
+            known = _THROTTLE_FRAMES.get(word)
+            if known is not None:  # a throttle frame decoded before: as the branch below leaves it
+                self.bidir = known[0]
+                self.frames += 1
+                self._throttle_word = word
+                self._cmd_run = 0
+                self.throttle_norm = known[1]
+                return known[1]
         if frame_crc_ok(word, False):
             bidir = False
         elif frame_crc_ok(word, True):
@@ -112,6 +127,8 @@ class SimEsc:
                 self.throttle_norm = (value - 1048) / 999.0 if value >= 1048 else 0.0
             else:
                 self.throttle_norm = (value - THROTTLE_MIN) / THROTTLE_RANGE
+                if WORD_CACHE:
+                    _THROTTLE_FRAMES[word] = (bidir, self.throttle_norm)
         return self.throttle_norm
 
     def receive_line(self, pulses):

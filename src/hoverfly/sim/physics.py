@@ -96,6 +96,7 @@ class Vehicle:
         self.tri = frame == "tri"
         self.servo_max_rad = math.radians(a.get("tri_servo_deg", 40.0))
         self.servo_cmd = 0.0
+        self._lag_dt = None
         self.reset()
 
     def reset(self, altitude_m=0.0, roll_rad=0.0, pitch_rad=0.0, yaw_rad=0.0):
@@ -141,8 +142,12 @@ class Vehicle:
         omega = self.omega
         bat = self.battery
         omega_max = self.omega_per_volt * bat.voltage_v
-        a_up = dt / (self.tau_up_s + dt)
-        a_dn = dt / (self.tau_down_s + dt)
+        if dt != self._lag_dt:  # the motors' lag factors for this step length (the same every step)
+            self._lag_dt = dt
+            self._a_up = dt / (self.tau_up_s + dt)
+            self._a_dn = dt / (self.tau_down_s + dt)
+        a_up = self._a_up
+        a_dn = self._a_dn
         thrust = 0.0
         tx = 0.0
         ty = 0.0
@@ -196,10 +201,13 @@ class Vehicle:
         r22 = 1 - 2 * (x * x + y * y)
 
         m = self.mass_kg
+        vn0 = self.vn
+        ve0 = self.ve
+        vd0 = self.vd
         # Drag against the air, world frame.
-        an = self.vn - self.wind_n
-        ae = self.ve - self.wind_e
-        ad = self.vd - self.wind_d
+        an = vn0 - self.wind_n
+        ae = ve0 - self.wind_e
+        ad = vd0 - self.wind_d
         speed = math.sqrt(an * an + ae * ae + ad * ad)
         c = self.drag_n_per_m2_s2 * speed
         dn = -c * an
@@ -220,15 +228,12 @@ class Vehicle:
         fn = r00 * fx_body + r01 * fy_body + r02 * fz_body + dn
         fe = r10 * fx_body + r11 * fy_body + r12 * fz_body + de
         fd = r20 * fx_body + r21 * fy_body + r22 * fz_body + dd
-        vn0 = self.vn
-        ve0 = self.ve
-        vd0 = self.vd
-        self.vn = vn0 + fn / m * dt
-        self.ve = ve0 + fe / m * dt
-        self.vd = vd0 + (fd / m + G_M_S2) * dt
-        self.pn += self.vn * dt
-        self.pe += self.ve * dt
-        self.pd += self.vd * dt
+        vn = vn0 + fn / m * dt
+        ve = ve0 + fe / m * dt
+        vd = vd0 + (fd / m + G_M_S2) * dt
+        self.pn += vn * dt
+        self.pe += ve * dt
+        pd = self.pd + vd * dt
 
         # Rotational dynamics, body frame (Euler's equations).
         p = self.p
@@ -247,19 +252,19 @@ class Vehicle:
 
         # Ground: ArduPilot's rule. At the ground: clamp, stop sinking; while the rotors cannot lift
         # the craft it sits level (yaw kept), still.
-        if self.pd >= 0.0:
-            if not self.on_ground and self.vd > 0.05:
-                self.impact_m_s = self.vd
-                if self.vd > 3.0 or r22 < 0.5:
+        if pd >= 0.0:
+            if not self.on_ground and vd > 0.05:
+                self.impact_m_s = vd
+                if vd > 3.0 or r22 < 0.5:
                     self.crashed = True
-            self.pd = 0.0
-            if self.vd > 0.0:
-                self.vd = 0.0
+            pd = 0.0
+            if vd > 0.0:
+                vd = 0.0
             if -fd < m * G_M_S2:
                 self.on_ground = True
-                self.vn = 0.0
-                self.ve = 0.0
-                self.vd = 0.0
+                vn = 0.0
+                ve = 0.0
+                vd = 0.0
                 p = 0.0
                 q = 0.0
                 r *= 0.5
@@ -272,6 +277,10 @@ class Vehicle:
                 self.on_ground = False
         else:
             self.on_ground = False
+        self.pd = pd
+        self.vn = vn
+        self.ve = ve
+        self.vd = vd
         self.p = p
         self.q = q
         self.r = r
@@ -292,9 +301,9 @@ class Vehicle:
         self.qz = nz * inv
 
         # Specific force in the body (accelerometer): (dv/dt - g) rotated into the body.
-        an_w = (self.vn - vn0) / dt
-        ae_w = (self.ve - ve0) / dt
-        ad_w = (self.vd - vd0) / dt - G_M_S2
+        an_w = (vn - vn0) / dt
+        ae_w = (ve - ve0) / dt
+        ad_w = (vd - vd0) / dt - G_M_S2
         self.fx = r00 * an_w + r10 * ae_w + r20 * ad_w
         self.fy = r01 * an_w + r11 * ae_w + r21 * ad_w
         self.fz = r02 * an_w + r12 * ae_w + r22 * ad_w

@@ -145,13 +145,15 @@ class Pilot:
         return self.roll, -stick, throttle
 
     def write(self, roll, pitch, yaw, throttle):
+        # Every step: the clamps are written out (a call each would be most of the cost).
         ch = self.ch
         m = self.map
-        ch[m[0]] = int(1500 + 500 * _clamp(roll, -1.0, 1.0))
-        ch[m[1]] = int(1500 + 500 * _clamp(pitch, -1.0, 1.0))
-        ch[m[3]] = int(1000 + 1000 * _clamp(throttle, 0.0, 1.0))
-        ch[m[2]] = int(1500 + 500 * _clamp(yaw, -1.0, 1.0))
+        ch[m[0]] = int(1500 + 500 * (-1.0 if roll < -1.0 else (1.0 if roll > 1.0 else roll)))
+        ch[m[1]] = int(1500 + 500 * (-1.0 if pitch < -1.0 else (1.0 if pitch > 1.0 else pitch)))
+        ch[m[3]] = int(1000 + 1000 * (0.0 if throttle < 0.0 else (1.0 if throttle > 1.0 else throttle)))
+        ch[m[2]] = int(1500 + 500 * (-1.0 if yaw < -1.0 else (1.0 if yaw > 1.0 else yaw)))
         ch[m[ARM_CH]] = 2000 if self.arm else 1000
         ch[m[MODE_CH]] = MODE_US[self.mode]
-        for idx, us in self.overrides_us.items():
-            ch[idx] = int(us)
+        if self.overrides_us:
+            for idx, us in self.overrides_us.items():
+                ch[idx] = int(us)
