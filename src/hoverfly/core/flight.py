@@ -455,9 +455,13 @@ class Flight:
         output = self.output
         if self.board.read_motor_telemetry(output.reply_codes, n):
             s = self.signals
-            output.decode_replies(n, s.motor_erpm, s.motor_rpm)
-            if self._rpm_on:
-                (self.fixed_rpm if self._rpm_fixed else self.rpm_filter).telemetry(output.decoders, n)
+            if self._rpm_on:  # the RPM filter takes one motor a pass: that motor's reply alone is decoded
+                rpm = self.fixed_rpm if self._rpm_fixed else self.rpm_filter
+                m = rpm.due()
+                if output.decode_reply(m, s.motor_erpm, s.motor_rpm):
+                    rpm.reply_ok(m)
+            else:
+                output.decode_replies(n, s.motor_erpm, s.motor_rpm)
 
     def _dt_s(self, dt_us):
         """The pass's dt in seconds, for the float stages (a float: the fixed-point pass takes dt_us)."""

@@ -179,13 +179,11 @@ class FixedRpmFilter:
 
     `configure(rpm_filter, signals, on)` returns whether it runs (`on`, and the float filter is active):
     it reads the float stage's configuration. `update(now_us)` then stands in for `RpmFilter.update`,
-    `telemetry(decoders, count)` for its `telemetry`; the lost motors' bits are kept in the float stage's
+    `due`, `reply_ok` and `telemetry` for its own; the lost motors' bits are kept in the float stage's
     `lost` too (the supervisor's arming reason reads it there)."""
 
     def __init__(self):
-        self.co = array("i", [0] * CO_SIZE)
-        self.st = array("i", [0] * ST_SIZE)
-        self.tb = array("i", [0] * TB_SIZE)
+        self.co = self.st = self.tb = None  # made by the first configure that runs the filter (4 kB)
         self.active = False
         self._float = None
         self._rpm = None
@@ -197,6 +195,10 @@ class FixedRpmFilter:
         self.active = False
         if not (on and rpm_filter.active):
             return False
+        if self.co is None:
+            self.co = array("i", bytearray(4 * CO_SIZE))
+            self.st = array("i", bytearray(4 * ST_SIZE))
+            self.tb = array("i", bytearray(4 * TB_SIZE))
         self._float = rpm_filter
         self._rpm = signals.motor_rpm
         self._gyro = signals.gyro_rad_s
@@ -260,6 +262,14 @@ class FixedRpmFilter:
             co[c + 1] = b1
             co[c + 2] = a2
             co[c + 3] = 0
+
+    def due(self):
+        """The motor the next pass recomputes (as RpmFilter.due)."""
+        return self.st[S_NEXT]
+
+    def reply_ok(self, m):
+        """Motor m's reply was valid (as RpmFilter.reply_ok)."""
+        self.st[S_LAST + m] = self.st[S_PASSES]
 
     def telemetry(self, decoders, count):
         """After a batch of replies: the motors whose reply was valid (as RpmFilter.telemetry)."""

@@ -282,6 +282,20 @@ class OutputStage:
             elif kind < 0:
                 self.reply_errors += 1
 
+    def decode_reply(self, m, erpm_out, rpm_out):
+        """`decode_replies` for motor m alone (the RPM filter takes one motor a pass, round-robin, and a decode
+        is a good part of MicroPython's pass: bench/stage_instructions.py output.decode_replies). True if the
+        reply was valid (eRPM or Extended DShot Telemetry)."""
+        d = self.decoders[m]
+        kind = d.decode_code(self.reply_codes[m])
+        if kind == KIND_ERPM:
+            erpm_out[m] = d.erpm
+            rpm_out[m] = d.rpm
+            self.replies += 1
+        elif kind < 0:
+            self.reply_errors += 1
+        return kind >= 0
+
 
 if HAS_ACCEL:
     OutputStage.update_fixed = _viper.update_fixed

@@ -13,6 +13,10 @@ output is `x + weight * (notch(x) - x)`, so a weight of 0 is an exact pass-throu
 never steps the output. Each pass recomputes one motor's notches (all its harmonics from one sin/cos),
 round-robin, as Betaflight spreads its updates: on a quad every notch is at most four passes old.
 
+Flight decodes one ESC reply a pass, the motor whose notches the next pass recomputes (a reply's decode is
+most of what bidirectional DShot costs MicroPython's pass), so a motor's RPM is at most four passes old
+on a quad when its notches move.
+
 Lost telemetry: a motor with no valid eRPM reply for RPM_LOST_MS (no reply, or the ESC's replies fail
 their GCR or CRC check) has its notches faded to pass-through (a notch left at the last frequency is
 wrong as soon as the motor changes speed), records EV_RPM_LOST and sets `lost`; the supervisor refuses
@@ -41,7 +45,8 @@ _TWO_PI = 2.0 * math.pi
 
 class RpmFilter:
     """The notch bank (see the module docstring). `configure(params, loop_hz, motor_count, bidir)`,
-    `update(gyro, rpm, now_us)` every pass, `telemetry(decoders, count)` after each batch of replies."""
+    `update(gyro, rpm, now_us)` every pass, then `reply_ok(m)` for the motor `due()` names when its reply
+    was valid (or `telemetry(decoders, count)` after a batch of them)."""
 
     def __init__(self, events=None):
         self.events = events
@@ -50,15 +55,10 @@ class RpmFilter:
         self.harmonics = 0
         self.motor_count = 4
         self.loop_hz = 1000
-        n = MAX_MOTORS * MAX_HARMONICS
-        # per notch k = motor * harmonics + h: centre (Hz), weight (0..1), coefficients b0, b1 (= a1), a2
-        self.hz = [0.0] * n
-        self.weight = [0.0] * n
-        self.b0 = [1.0] * n
-        self.b1 = [0.0] * n
-        self.a2 = [0.0] * n
-        # per axis per notch: x1, x2, y1, y2 (direct form 1: the state is the signal's own samples)
-        self.state = [0.0] * (3 * n * 4)
+        # per notch k = motor * harmonics + h: centre (Hz), weight (0..1), coefficients b0, b1 (= a1), a2;
+        # per axis per notch: x1, x2, y1, y2 (direct form 1: the state is the signal's own samples). Made
+        # by configure for the notches asked for: a board that never turns the filter on keeps the heap.
+        self.hz = self.weight = self.b0 = self.b1 = self.a2 = self.state = ()
         self.weights = [1.0, 1.0, 1.0]  # per harmonic
         self.min_hz = 100.0
         self.fade_hz = 50.0
@@ -80,6 +80,14 @@ class RpmFilter:
             self.refused = ("rpm_harmonics = %d needs the motors' RPM: bidirectional DShot (a dshot motor_protocol "
                             "and dshot_bidir = 1), or rpm_harmonics = 0" % h)
         self.active = h > 0 and bidir
+        n = motor_count * h if self.active else 0
+        if len(self.weight) != n:
+            self.hz = [0.0] * n
+            self.weight = [0.0] * n
+            self.b0 = [1.0] * n
+            self.b1 = [0.0] * n
+            self.a2 = [0.0] * n
+            self.state = [0.0] * (3 * n * 4)
         self.min_hz = float(params.get("rpm_min_hz"))
         self.fade_hz = float(params.get("rpm_fade_hz"))
         self.max_hz = MAX_HZ_OF_LOOP * loop_hz
@@ -109,13 +117,19 @@ class RpmFilter:
             self.last_ok[m] = 0
         self.next_motor = 0
 
+    def due(self):
+        """The motor whose notches the next pass recomputes: the one reply Flight._motor_telemetry decodes."""
+        return self.next_motor
+
+    def reply_ok(self, m):
+        """Motor m's reply was valid (an eRPM or an Extended DShot Telemetry frame: the ESC answers)."""
+        self.last_ok[m] = self.passes
+
     def telemetry(self, decoders, count):
-        """After Flight._motor_telemetry decoded a batch of replies: the motors whose reply was valid."""
-        p = self.passes
-        ok = self.last_ok
+        """After a batch of replies was decoded: the motors whose reply was valid."""
         for m in range(count):
-            if decoders[m].kind >= 0:  # an eRPM or an Extended DShot Telemetry frame: the ESC answers
-                ok[m] = p
+            if decoders[m].kind >= 0:
+                self.last_ok[m] = self.passes
 
     def target_weight(self, hz, harmonic):
         """The depth a notch at `hz` should have: its harmonic's weight, faded in above min_hz and out
@@ -191,7 +205,7 @@ class RpmFilter:
         weight = self.weight
         for axis in range(3):
             x = gyro[axis]
-            o = axis * MAX_MOTORS * MAX_HARMONICS * 4
+            o = axis * n * 4
             for k in range(n):
                 x1 = st[o]
                 x2 = st[o + 1]
