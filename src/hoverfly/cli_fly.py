@@ -32,6 +32,8 @@ def run_fly(args):
         raise UserError("--hil runs the firmware on the device at the port: leave out --firmware")
     if args.baud <= 0:
         raise UserError("--baud must be a positive rate")
+    if args.scenario is None:
+        args.scenario = _default_scenario(args.airframe)
     if args.realtime and not args.json:
         return _fly_live(args)
     result = fly(args.scenario, args.airframe, args.seed, _parse_set(args.set), args.duration, args.realtime,
@@ -43,6 +45,13 @@ def run_fly(args):
     else:
         print(summary(result))
     return 0
+
+
+def _default_scenario(airframe):
+    """With no --scenario: the demo for a multirotor, the box circuit (hand launch, climb, four turns) for a plane."""
+    from hoverfly.sim.airframes import load_airframe
+
+    return "box" if load_airframe(airframe).get("kind") == "plane" else "demo"
 
 
 def _fly_live(args):
@@ -155,7 +164,8 @@ def register(sub):
                                    "flight: tilt, altitude, drift, each commanded step's response, events.",
                        epilog=_builtins_text(), formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--airframe", default="5inch", help="built-in airframe name or a .toml file")
-    p.add_argument("--scenario", default="demo", help="built-in scenario name or a .toml file")
+    p.add_argument("--scenario", default=None,
+                   help="built-in scenario name or a .toml file (default: demo; box for a plane)")
     p.add_argument("--duration", type=float, default=None, help="seconds to fly (default: the scenario's)")
     p.add_argument("--seed", type=int, default=1, help="random seed for sensor noise")
     p.add_argument("--set", action="append", metavar="NAME=VALUE", help="override a parameter for this flight")

@@ -42,7 +42,7 @@ from struct import pack_into, unpack_from
 from hoverfly.cli_flash import MPY_ARCH_CODE, mpy_arch
 from hoverfly.compat import ticks_add, ticks_diff
 from hoverfly.core.command.autopilot import STATE_NAMES
-from hoverfly.core.config.params import row
+from hoverfly.core.config.params import PARAMS, row
 from hoverfly.core.events import EventLog
 from hoverfly.core.scheduler import PS_PASSES, PS_SIZE
 from hoverfly.core.signals import Signals
@@ -480,7 +480,8 @@ class BridgedFlight:
     def _send_params(self, timeout_s):
         values = self.params.values
         lines = []
-        for name in sorted(values):
+        for r in PARAMS:  # in the table's order, as `diff` lists them: mixer_type before what depends on it
+            name = r[0]
             v = values[name]
             r = row(name)
             last = self._sent.get(name, r[1] if r is not None else None)
