@@ -14,6 +14,7 @@ from hoverfly.core.signals import Signals
 from hoverfly.core.stages.control import MODE_ACRO, MODE_ANGLE, MODE_HORIZON, MODE_MANUAL, Controller
 from hoverfly.core.stages.fwcontrol import FwController, manual_curve, tpa_factor
 from hoverfly.core.stages.rc import RcInput
+from hoverfly.core.stages.receiver import flight_mode_text
 
 DEG = math.pi / 180.0
 G = 9.80665
@@ -294,6 +295,11 @@ def test_glide_on_a_multirotor_is_refused_with_a_plain_reason_and_a_stored_one_l
     fs = Failsafe(EventLog())
     fs.configure(q)
     assert fs.procedure == PROC_LAND
+
+
+def test_crsf_telemetry_names_manual_as_inav_does():
+    assert flight_mode_text(MODE_MANUAL, False, False, True, 0) == b"MANU"
+    assert flight_mode_text(MODE_MANUAL, False, True, True, 0) == b"!FS!"
 
 
 def test_the_manual_switch_selects_manual_on_a_plane_only():

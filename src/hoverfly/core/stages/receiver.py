@@ -48,16 +48,18 @@ _KIND_FLIGHT_MODE = const(2)
 # CRSF flight-mode strings as Betaflight master sends them (reference/protocols.md §1.5):
 # armed plain, disarmed and ready to arm '*', disarmed with arming blocked '!'.
 # Indexed [mode][state]; mode 0 acro, 1 angle, 2 horizon (control.MODE_*), 3 acro with air
-# mode, 4 failsafe. Preallocated bytes: choosing one allocates nothing.
+# mode, 4 failsafe, 5 a plane's MANUAL (INAV's "MANU"). Preallocated bytes: choosing one allocates nothing.
 _MODE_TEXT = (
     (b"ACRO", b"ACRO*", b"ACRO!"),
     (b"ANGL", b"ANGL*", b"ANGL!"),
     (b"HOR", b"HOR*", b"HOR!"),
     (b"AIR", b"AIR*", b"AIR!"),
     (b"!FS!", b"!FS!*", b"!FS!!"),
+    (b"MANU", b"MANU*", b"MANU!"),
 )
 _TEXT_AIR = const(3)
 _TEXT_FAILSAFE = const(4)
+_TEXT_MANUAL = const(5)
 
 
 def flight_mode_text(mode, airmode, failsafe, armed, arming_flags):
@@ -68,6 +70,8 @@ def flight_mode_text(mode, airmode, failsafe, armed, arming_flags):
         row = _MODE_TEXT[_TEXT_AIR]
     elif 0 <= mode <= 2:
         row = _MODE_TEXT[mode]
+    elif mode == 3:  # control.MODE_MANUAL
+        row = _MODE_TEXT[_TEXT_MANUAL]
     else:
         row = _MODE_TEXT[0]
     if armed:
