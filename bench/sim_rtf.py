@@ -12,7 +12,8 @@ Prints one JSON object:
 
     .venv/bin/python bench/sim_rtf.py [--scenario hover] [--airframe 5inch] [--runs 3] [--no-profile]
     .venv/bin/python bench/sim_rtf.py --firmware micropython [--duration 6]
-    .venv/bin/python bench/sim_rtf.py --airframe trainer   # a plane: JSBSim + IMU model only, for now
+    .venv/bin/python bench/sim_rtf.py --airframe trainer   # a plane (bank-steps): JSBSim and the fixed-wing core
+    .venv/bin/python bench/sim_rtf.py --airframe trainer --plane-side   # a plane: JSBSim + IMU model only
     HOVERFLY_NATIVE=1 .venv/bin/python bench/sim_rtf.py    # on the native twins (python -m hoverfly.native build)
 
 native_modules says how many of hoverfly/native.py's modules ran compiled (0: all from their .py files).
@@ -150,8 +151,8 @@ def bridge(args):
 
 def plane_side(args):
     """A plane (issue 23): the simulator's side of each lockstep step, JSBSim physics and the IMU
-    model, at a 1 kHz loop, with the aileron stepping every second. The flight core's pass is not
-    in it until the fixed-wing core flies (then the plane goes through SimRun like the quads)."""
+    model, at a 1 kHz loop, with the aileron stepping every second, no flight core (--plane-side; without it a
+    plane flies its scenario through SimRun with the fixed-wing core, as the quads do)."""
     from hoverfly.sim.plane import Plane
     from hoverfly.sim.sensors import ImuModel
 
@@ -183,17 +184,21 @@ def plane_side(args):
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("--scenario", default="hover")
+    ap.add_argument("--scenario", default=None, help="default: hover, bank-steps for a plane")
     ap.add_argument("--airframe", default="5inch")
     ap.add_argument("--runs", type=int, default=3)
     ap.add_argument("--no-profile", action="store_true")
     ap.add_argument("--firmware", choices=("cpython", "micropython"), default="cpython")
     ap.add_argument("--duration", type=float, default=None, help="seconds to fly (default: the scenario's)")
+    ap.add_argument("--plane-side", action="store_true", help="a plane: the simulator's side alone (JSBSim, IMU)")
     args = ap.parse_args()
+    plane = load_airframe(args.airframe).get("kind") == "plane"
+    if args.scenario is None:
+        args.scenario = "bank-steps" if plane else "hover"
     if args.firmware == "micropython":
         bridge(args)
         return
-    if load_airframe(args.airframe).get("kind") == "plane":
+    if plane and args.plane_side:
         plane_side(args)
         return
     best = None
