@@ -303,6 +303,8 @@ class Flight:
         # 4. controller and 5. mixer: in fixed point (pid_math; MicroPython's zero-allocation pass), or float
         if self._fixed_on:
             self.fixed.update(sp, self._attitude, dt_us, self.commander.i_active, self.commander.airmode_active)
+        elif self._plane:  # a plane's controller (fixed point where pid_math asks), its one motor
+            self._control_plane(dt_us, sp)
         else:
             self._control_float(dt_us, sp)
         self._outputs(now_us)  # 6. outputs
@@ -388,9 +390,6 @@ class Flight:
 
     def _control_float(self, dt_us, sp):
         """4. The controller and 5. the mixer in float (pid_math float, or where the fixed stage cannot run)."""
-        if self._plane:
-            self._control_plane(dt_us, sp)
-            return
         s = self.signals
         self.controller.update(sp, s.attitude, s.gyro_rad_s, self._dt_s(dt_us), self.commander.i_active,
                                self.mixer.saturated, s.torque_norm)
@@ -399,12 +398,16 @@ class Flight:
     def _control_plane(self, dt_us, sp):
         """4. A plane's controller (core/stages/fwcontrol.py): stabilised roll, pitch, yaw into torque_norm for
         the servo mixer in _outputs; its one motor takes the throttle (the plane's motor table is throttle only)."""
-        s = self.signals
         if self._fw_fixed:
-            self.fixed_fw.update(sp, s.attitude, dt_us, self.commander.i_active)
+            self.fixed_fw.update(sp, self._attitude, dt_us, self.commander.i_active)
         else:
-            self.fw.update(sp, s.attitude, s.gyro_rad_s, self._dt_s(dt_us), self.commander.i_active, s.torque_norm)
-        s.motor_norm[0] = sp.throttle_norm
+            self._control_plane_float(dt_us, sp)
+        self.signals.motor_norm[0] = sp.throttle_norm
+
+    def _control_plane_float(self, dt_us, sp):
+        """_control_plane's float law (pid_math float, or where the fixed pass does not run: CPython on auto)."""
+        s = self.signals
+        self.fw.update(sp, s.attitude, s.gyro_rad_s, self._dt_s(dt_us), self.commander.i_active, s.torque_norm)
 
     def _outputs(self, now_us):
         """6. Outputs: idle..max while armed, a bench motor test while disarmed, then the board's codec."""

@@ -182,11 +182,15 @@ class Commander:
             self._autopilot_claim()
         if rc.airmode_box:
             self.airmode_enabled = rc.airmode_switch
+        if self._manual[0]:
+            self._manual_switch(rc)
+
+    def _manual_switch(self, rc):
+        """A plane's MANUAL switch in range outranks ANGLE and HORIZON (INAV's priority): the mode of this frame."""
         ch, lo, hi = self._manual
-        if ch:
-            channels = self._channels_us
-            if ch <= len(channels) and lo <= channels[ch - 1] < hi:
-                rc.mode = MODE_MANUAL  # a plane's MANUAL switch outranks ANGLE and HORIZON (INAV's priority)
+        channels = self._channels_us
+        if ch <= len(channels) and lo <= channels[ch - 1] < hi:
+            rc.mode = MODE_MANUAL
 
     def task(self, now_us, armed, yaw_rad):
         """100 Hz, after the supervisor's checks: a silent autopilot loses its privilege; the heading hold's
