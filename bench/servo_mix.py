@@ -1,5 +1,5 @@
 """The servo mixer's pass (ServoMixer.update, armed) per call: µs and heap bytes, for the airplane preset (3 rules),
-the flying wing's (4 rules) and a 16-rule table with speed limits, the roll command changing every pass. On
+the flying wing's (4 rules) and a full 8-rule table with speed limits, the roll command changing every pass. On
 MicroPython the kernel is its generated viper twin (accel/servos.py: run `python -m hoverfly.fastgen` first),
 without it the Python kernel.
 Prints one JSON object; every figure is the best of RUNS batches (the host is shared and noisy).
@@ -24,7 +24,7 @@ def _mixer(frame, rules=0):
     p = Params()
     p.set("mixer_type", frame)
     for i in range(rules):
-        p.update([("smix%d_servo" % i, i % 8), ("smix%d_input" % i, i % 12), ("smix%d_rate" % i, 50),
+        p.update([("smix%d_servo" % i, i % 4), ("smix%d_input" % i, i % 12), ("smix%d_rate" % i, 50),
                   ("smix%d_speed" % i, 100)])
     m = ServoMixer()
     m.configure(p)
@@ -52,7 +52,7 @@ def _batch(m, passes):
 def main():
     result = {"runtime": "micropython" if IS_MICROPYTHON else "cpython", "passes": PASSES}
     for name, m in (("airplane", _mixer("airplane")), ("flying_wing", _mixer("flying_wing")),
-                    ("rules16_speed", _mixer("airplane", 16))):
+                    ("rules8_speed", _mixer("airplane", 8))):
         best_us = None
         best_b = None
         for _ in range(RUNS):

@@ -59,10 +59,10 @@ def test_smix_naming_a_servo_that_does_not_exist_is_one_error_line_and_changes_n
     cli, f = _cli()
     text = _type(cli, "smix 0 4 0 100 0")
     assert _errors(text) == ["###ERROR: smix: servo 4 does not exist: servos are 0..3###"]
-    for line in ("smix 0 0 0 200 0", "smix 0 0 13 100 0", "smix 0 0 0 100 300", "smix 16 0 0 100 0",
+    for line in ("smix 0 0 0 200 0", "smix 0 0 13 100 0", "smix 0 0 0 100 300", "smix 8 0 0 100 0",
                  "smix 0 zero 0 100 0", "smix 0 0 0"):
         assert len(_errors(_type(cli, line))) == 1, line
-    assert all(f.params.get("smix%d_rate" % i) == 0 for i in range(16))
+    assert all(f.params.get("smix%d_rate" % i) == 0 for i in range(8))
 
 
 def test_servo_lists_and_sets_end_points_centre_and_rate():

@@ -42,11 +42,11 @@ def test_msp_servo_is_eight_u16_widths():
     assert payload[:6] == bytes([0xB8, 0x06, 0xDC, 0x05, 0xD2, 0x04])  # 1720, 1500, 1234 little-endian
 
 
-def test_servo_configurations_are_14_bytes_a_servo_as_inav_sends_them():
+def test_servo_configurations_are_14_bytes_a_servo_as_inav_sends_them_for_the_boards_4_servos():
     s, f = _server()
     assert f.params.update([("servo1_min_us", 1100), ("servo1_mid_us", 1520), ("servo1_rate", -100)]) is None
     d, payload = _ask(s, msp.MSP_SERVO_CONFIGURATIONS)
-    assert d == msp.DIR_REPLY and len(payload) == 8 * 14
+    assert d == msp.DIR_REPLY and len(payload) == 4 * 14
     # servo 0: min 1000, max 2000, middle 1500, rate 100, then 0, 0, 255 and a u32 0
     assert payload[:14] == bytes([0xE8, 0x03, 0xD0, 0x07, 0xDC, 0x05, 100, 0, 0, 255, 0, 0, 0, 0])
     # servo 1: rate -100 as INAV's int8 byte
@@ -65,17 +65,17 @@ def test_set_servo_configuration_writes_one_servo():
 def test_set_servo_configuration_min_above_max_or_bad_length_is_an_error_and_changes_nothing():
     s, f = _server()
     for req in (msp.pack_set_servo_configuration(1, 2000, 1000, 1500, 100),
-                msp.pack_set_servo_configuration(8, 1000, 2000, 1500, 100),
+                msp.pack_set_servo_configuration(4, 1000, 2000, 1500, 100),  # servos 0..3
                 msp.pack_set_servo_configuration(1, 1000, 2000, 1500, 127),
                 msp.pack_set_servo_configuration(1, 1000, 2000, 1500, 100)[:10]):
         assert _ask(s, msp.MSP_SET_SERVO_CONFIGURATION, req)[0] == msp.DIR_ERROR
     assert f.params.get("servo1_min_us") == 1000 and f.params.get("servo1_rate") == 100
 
 
-def test_servo_mixer_lists_the_preset_as_16_rules_of_6_bytes():
+def test_servo_mixer_lists_the_preset_as_8_rules_of_6_bytes():
     s, _ = _server("flying_wing")
     d, payload = _ask(s, msp.MSP2_INAV_SERVO_MIXER, version=2)
-    assert d == msp.DIR_REPLY and len(payload) == 16 * 6
+    assert d == msp.DIR_REPLY and len(payload) == 8 * 6
     # rule 1: servo 0 <- stabilised roll at -50 %, no speed limit, condition 255 (always)
     assert payload[6:12] == bytes([0, 0, 0xCE, 0xFF, 0, 255])
     rules = msp.unpack_servo_mixer(payload)
@@ -99,12 +99,12 @@ def test_set_servo_mixer_bad_rules_are_errors_and_change_nothing():
     for req in (msp.pack_set_servo_mixer(0, 4, 0, 100, 0),  # servo 4: this board drives 0..3
                 msp.pack_set_servo_mixer(0, 0, 14, 100, 0),  # flaps
                 msp.pack_set_servo_mixer(0, 0, 0, 300, 0),  # rate beyond 125
-                msp.pack_set_servo_mixer(16, 0, 0, 100, 0),  # rule 16
+                msp.pack_set_servo_mixer(8, 0, 0, 100, 0),  # rule 8: rules are 0..7
                 msp.pack_set_servo_mixer(0, 0, 0, 100, 0, condition=3),  # a logic condition
                 msp.pack_set_servo_mixer(0, 0, 0, 100, 0)[:6]):
         assert _ask(s, msp.MSP2_INAV_SET_SERVO_MIXER, req, version=2)[0] == msp.DIR_ERROR
     assert s.last_error
-    assert all(f.params.get("smix%d_rate" % i) == 0 for i in range(16))
+    assert all(f.params.get("smix%d_rate" % i) == 0 for i in range(8))
 
 
 def test_servo_writes_are_refused_while_armed():

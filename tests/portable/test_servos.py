@@ -223,7 +223,7 @@ def test_a_rule_naming_a_servo_that_does_not_exist_is_refused_with_one_reason():
     p = _params(mixer_type="airplane")
     pairs, err = rule_pairs(p, 0, 4, SRC_ROLL, 100, 0, servo_count=4)
     assert pairs is None and err == "smix: servo 4 does not exist: servos are 0..3"
-    assert p.set("smix0_servo", 8) is not None  # the row's own range: servos 0..7
+    assert p.set("smix0_servo", 4) is not None  # the row's own range: servos 0..3
 
 
 def test_bad_rules_are_refused_and_nothing_changes():

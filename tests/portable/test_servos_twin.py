@@ -30,8 +30,8 @@ _TABLES = (
      ("smix3_servo", 1), ("smix3_input", 22), ("smix3_rate", -125), ("smix3_speed", 40),
      ("smix4_servo", 2), ("smix4_input", 27), ("smix4_rate", 33),
      ("smix5_servo", 3), ("smix5_input", 3), ("smix5_rate", 100), ("smix5_speed", 7),
-     ("smix6_servo", 7), ("smix6_input", 26), ("smix6_rate", 99), ("servo7_rate", -125),
-     ("smix7_servo", 7), ("smix7_input", 8), ("smix7_rate", 125)),
+     ("smix6_servo", 3), ("smix6_input", 26), ("smix6_rate", 99), ("servo3_rate", -125),
+     ("smix7_servo", 3), ("smix7_input", 8), ("smix7_rate", 125)),
 )
 
 

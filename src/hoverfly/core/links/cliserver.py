@@ -19,7 +19,15 @@ from hoverfly.core.safety.arming import reason_names
 from hoverfly.core.scheduler import PS_CYCLE, PS_CYCLE_MAX, PS_JITTER_MAX
 from hoverfly.core.stages.output import MAX_SERVOS as SERVO_LINES
 from hoverfly.core.stages.rc import map_text, map_value
-from hoverfly.core.stages.servos import INPUT_NAMES, reset_pairs, rule_pairs, rules_of, servo_pairs, servo_rows
+from hoverfly.core.stages.servos import (
+    INPUT_NAMES,
+    MAX_RULES,
+    reset_pairs,
+    rule_pairs,
+    rules_of,
+    servo_pairs,
+    servo_rows,
+)
 
 HELP = (
     "help                      this list",
@@ -276,7 +284,7 @@ class CliServer:
                 return ["###ERROR: %s###" % err]
         rules = rules_of(params)
         out = ["# smix: rule servo input rate speed"]
-        stored = any(params.stored("smix%d_rate" % i) for i in range(16))
+        stored = any(params.stored("smix%d_rate" % i) for i in range(MAX_RULES))
         if rules and not stored:
             out.append("# %s preset (no rules stored)" % params.get("mixer_type"))
         for i, servo, source, rate, speed in rules:

@@ -30,7 +30,7 @@ from hoverfly.core.scheduler import PS_CYCLE
 from hoverfly.core.stages.control import MODE_ANGLE, MODE_HORIZON
 from hoverfly.core.stages.output import MAX_SERVOS as SERVO_LINES
 from hoverfly.core.stages.rc import map_channels
-from hoverfly.core.stages.servos import MAX_RULES, MAX_SERVOS, rule_pairs, rules_of, servo_pairs, servo_rows
+from hoverfly.core.stages.servos import MAX_RULES, SERVO_ROWS, rule_pairs, rules_of, servo_pairs, servo_rows
 from hoverfly.protocols import msp
 
 CONFIG_CLI = 1  # flight.config_session bits (core/safety/arming.py blocks arming while any is set)
@@ -304,7 +304,7 @@ class MspServer(ParsedRequests):
     def _servo_configurations(self):
         p = self.flight.params
         servos = []
-        for i in range(MAX_SERVOS):
+        for i in range(SERVO_ROWS):
             n = servo_rows(i)
             servos.append((p.stored(n[0]), p.stored(n[2]), p.stored(n[1]), p.stored(n[3])))
         return msp.pack_servo_configurations(servos)

@@ -32,8 +32,9 @@ from hoverfly.core.fastpass.fixedmath import dec as _dec
 from hoverfly.core.fastpass.fixedmath import mul as _mul
 from hoverfly.core.stages.rc import map_channels
 
-MAX_SERVOS = const(8)  # servo_us's length, and the servoN_* rows (0..7)
-MAX_RULES = const(16)  # smixN_* rows (0..15): rule indexes as INAV's smix numbers them
+MAX_SERVOS = const(8)  # servo_us's length (MSP_SERVO reports 8)
+SERVO_ROWS = const(4)  # servos with settings (servoN_* rows, 0..3): the boards' servo lines
+MAX_RULES = const(8)  # smixN_* rows (0..7): rule indexes as INAV's smix numbers them
 
 # INAV's input source ids (docs/Mixer.md); 12, 13 (gimbal) and 14 (flaps) are not supported.
 SRC_ROLL = const(0)
@@ -81,16 +82,16 @@ _DT_MAX_US = const(10000)  # a longer pass limits speed as if it were this long 
 _P_RULES = const(0)
 _P_COUNT = const(1)
 _P_RULE = const(4)
-_P_SERVO = const(84)  # _P_RULE + 5 * MAX_RULES
-_PLAN_WORDS = const(116)  # _P_SERVO + 4 * MAX_SERVOS
+_P_SERVO = const(44)  # _P_RULE + 5 * MAX_RULES
+_PLAN_WORDS = const(60)  # _P_SERVO + 4 * SERVO_ROWS
 # st (array 'i'): the pass's dt (µs), then the stabilised roll, pitch, yaw and the throttle input (2**19 =
 # full travel), each rule's speed-limited input, each servo's sum.
 _S_DT = const(0)
 _S_IN = const(2)
 _S_THR = const(5)
 _S_RULE = const(6)
-_S_SUM = const(22)  # _S_RULE + MAX_RULES
-_ST_WORDS = const(30)  # _S_SUM + MAX_SERVOS
+_S_SUM = const(14)  # _S_RULE + MAX_RULES
+_ST_WORDS = const(18)  # _S_SUM + SERVO_ROWS
 
 
 # fastpass: servo_mix tq:f thr:f ch:H plan:i st:i out:H
@@ -111,7 +112,7 @@ def servo_mix(tq, thr, ch, plan, st, out):
         dt = _DT_MAX_US
     elif dt < 0:
         dt = 0
-    for i in range(MAX_SERVOS):
+    for i in range(SERVO_ROWS):
         st[_S_SUM + i] = 0
     nch = len(ch)
     for r in range(plan[_P_RULES]):
@@ -221,7 +222,7 @@ def servo_error(lo_us, mid_us, hi_us):
     return None
 
 
-def rule_pairs(params, index, servo, source, rate, speed, servo_count=MAX_SERVOS):
+def rule_pairs(params, index, servo, source, rate, speed, servo_count=SERVO_ROWS):
     """The (name, value) writes that set rule `index` (the preset copied in first when no rule is stored,
     so editing one rule keeps the others), or (None, the one-line reason) when the rule is not valid."""
     if not (0 <= index < MAX_RULES):
@@ -253,7 +254,7 @@ def reset_pairs():
     return pairs
 
 
-def servo_pairs(index, lo_us, hi_us, mid_us, rate, servo_count=MAX_SERVOS):
+def servo_pairs(index, lo_us, hi_us, mid_us, rate, servo_count=SERVO_ROWS):
     """INAV's `servo N min max mid rate` as parameter writes, or (None, the one-line reason)."""
     if not (0 <= index < servo_count):
         return None, "servo %s does not exist: servos are 0..%d" % (index, servo_count - 1)
@@ -284,7 +285,7 @@ class ServoMixer:
         self._tq = array("f", [0.0, 0.0, 0.0])
         self._ch = array("H", [1500] * 18)
         self._out = array("H", [1500] * MAX_SERVOS)
-        for i in range(MAX_SERVOS):
+        for i in range(SERVO_ROWS):
             b = _P_SERVO + 4 * i
             self._plan[b] = 1000
             self._plan[b + 1] = 1500
@@ -303,7 +304,7 @@ class ServoMixer:
         frame = mixer_type if mixer_type is not None else params.get("mixer_type")
         errors = []
         plan = self._plan
-        for i in range(MAX_SERVOS):
+        for i in range(SERVO_ROWS):
             n = servo_rows(i)
             lo = params.get(n[0])
             mid = params.get(n[1])
@@ -379,7 +380,7 @@ class ServoMixer:
     def centre(self, servo_us):
         """Every servo at its mid (disarmed; the output failsafe's position)."""
         plan = self._plan
-        for i in range(MAX_SERVOS):
+        for i in range(SERVO_ROWS):
             servo_us[i] = plan[_P_SERVO + 4 * i + 1]
 
     def from_norm(self, servo_norm, count, servo_us):
