@@ -14,8 +14,8 @@ summary up to date:
   autopilot's procedure (`Flight.on_msp_rc` takes its frames, which never change either).
 - SOURCE_LAUNCH: a plane's hand launch (core/command/launch.py), from the arming to the pilot's sticks or
   its timeout; the commander's `task` follows it.
-The failsafe outranks the launch and the autopilot. The fourth source, the bench motor test, owns the motor outputs
-rather than the set point (disarmed only): Flight._outputs gives it its word after the mixer, and
+The failsafe outranks the launch and the autopilot. One more source, the bench motor test, owns the motor
+outputs rather than the set point (disarmed only): Flight._outputs gives it its word after the mixer, and
 `flier()` names it for the MSP status.
 
 A plane (`is_plane(mixer_type)`) has a MANUAL mode besides ANGLE, HORIZON and ACRO: its switch
