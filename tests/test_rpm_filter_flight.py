@@ -100,17 +100,20 @@ def test_a_motor_whose_telemetry_stops_mid_hover_keeps_the_craft_flying():
     assert f.weight == [1.0, 0.0, 1.0, 1.0]
 
 
-def test_the_dynamic_notch_alone_finds_the_motor_peak_and_cuts_it_by_20_db():
+@pytest.mark.parametrize("pid_math", ["float", "fixed"])
+def test_the_dynamic_notch_alone_finds_the_motor_peak_and_cuts_it_by_20_db(pid_math):
     # the peak is found in the gyro itself (the ESCs' telemetry is on only to say where the motors turn)
-    run = SimRun("5inch", "hover", seed=3, overrides=(("dshot_bidir", 1), ("dyn_notch_count", 1)), duration_s=9.0)
+    run = SimRun("5inch", "hover", seed=3, overrides=(("dshot_bidir", 1), ("dyn_notch_count", 1),
+                                                      ("pid_math", pid_math)), duration_s=9.0)
     trace = GyroTrace(run, 5.0)
     r = run.run()
     assert r["armed"] and not r["crashed"]
-    assert not run.flight._fixed_imu_on  # float only for now: the fixed IMU filter declines
+    f = run.flight
+    assert f._dyn_fixed == (pid_math == "fixed")
     motor_hz = np.mean(trace.rpm) / 60.0
     out = [0.0]
     for axis in range(3):
-        run.flight.dyn_notch.centres_hz(axis, out)
+        (f.fixed_dyn if f._dyn_fixed else f.dyn_notch).centres_hz(axis, out)
         assert abs(out[0] - motor_hz) < 3.0, (axis, out[0], motor_hz)
         db, _ = trace.peak_db(axis, motor_hz)
         assert db <= -20.0, (axis, db)

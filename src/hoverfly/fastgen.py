@@ -26,6 +26,7 @@ PACKAGE = pathlib.Path(__file__).resolve().parent
 STAGES = {
     "imufilter": "hoverfly.core.fastpass.fixedimu",
     "rpmfilter": "hoverfly.core.fastpass.fixedrpm",
+    "dynnotch": "hoverfly.core.fastpass.fixeddyn",
     "rate": "hoverfly.core.fastpass.fixedrate",
     "fw": "hoverfly.core.fastpass.fixedfw",
     "att": "hoverfly.core.fastpass.fixedatt",

@@ -85,6 +85,8 @@ class Flight:
         self._rpm_fixed = False
         self.dyn_notch = None  # notches on the gyro spectrum's peaks (dyn_notch_count), made likewise
         self._dyn_on = False
+        self.fixed_dyn = None
+        self._dyn_fixed = False
         self.output = OutputStage()
         self.servos = ServoMixer()  # a plane's surfaces (smix rules), read by _outputs
         self.servos.bind(self.signals.torque_norm, self.signals.rc_channels_us, self.signals.servo_us)
@@ -178,8 +180,7 @@ class Flight:
         # The IMU filters go with the rate loop: anywhere for "fixed", on "auto" where their viper twin loads.
         self._fixed_imu_on = self.fixed_imu.configure(
             self.gyro_filter, self.accel_filter, self.signals, self.calibration.bias_rad_s,
-            fast and p.get("dyn_notch_count") == 0  # the dynamic notch is float only, for now
-            and (p.get("pid_math") == "fixed" or _FIXED_IMU_ACCEL))
+            fast and (p.get("pid_math") == "fixed" or _FIXED_IMU_ACCEL))
         self._fixed_out_on = fast and (p.get("pid_math") == "fixed" or _FIXED_OUT_ACCEL)
         self._fixed_att_on = self.fixed_att.configure(
             self.mahony, self.signals.attitude, self.signals, hz, self._att_every,
@@ -207,6 +208,12 @@ class Flight:
         if self.dyn_notch is not None:
             self.dyn_notch.configure(p, hz)
             self._dyn_on = self.dyn_notch.active
+            if self._dyn_on and self._fixed_imu_on and self.fixed_dyn is None:
+                from hoverfly.core.fastpass.fixeddyn import FixedDynNotch
+
+                self.fixed_dyn = FixedDynNotch()
+            self._dyn_fixed = self.fixed_dyn is not None and self.fixed_dyn.configure(
+                self.dyn_notch, self.signals, self._fixed_imu_on)
         self._rx_timeout_us = p.get("rx_timeout_ms") * 1000
         self._route()
         self._configured_at = p.changed
@@ -331,7 +338,10 @@ class Flight:
                 else:
                     self.rpm_filter.update(s.gyro_rad_s, s.motor_rpm, now_us)
             if self._dyn_on:  # last: it goes after what the RPM filter leaves
-                self.dyn_notch.update(s.gyro_rad_s)
+                if self._dyn_fixed:
+                    self.fixed_dyn.update()
+                else:
+                    self.dyn_notch.update(s.gyro_rad_s)
         elif self.logger.active:  # no new sample: the log's integral_dt says so (Logger.update's full path)
             self.logger.full_pass_next()
         if self._att_fixed_now:  # the gyro average and the update every _att_every passes, as _estimate

@@ -10,7 +10,6 @@ Gains keep Betaflight's scales so a Betaflight tune is a sane start; stages conv
 to SI once, in configure().
 """
 
-from hoverfly.compat import IS_MICROPYTHON
 from hoverfly.core.stages.mixer import is_plane
 
 LIVE = 0
@@ -612,16 +611,7 @@ def rc_map_error(value):
 
 
 # Checks a range cannot express, per parameter: fn(value) -> None or the one-line reason.
-def dyn_notch_error(value):
-    """None unless a dynamic notch is asked for on MicroPython: it has no fixed-point form yet, and in float its
-    SDFT allocates 11-24 kB a pass there (bench/notch_filters.py), 50-100 times the pass's budget."""
-    if value and IS_MICROPYTHON:
-        return ("dyn_notch_count = %d: the dynamic notch runs in float only, far beyond MicroPython's pass; "
-                "0 on this board (the RPM filter, rpm_harmonics, runs in fixed point)" % value)
-    return None
-
-
-_EXTRA_CHECKS = {"rc_map": rc_map_error, "dyn_notch_count": dyn_notch_error}
+_EXTRA_CHECKS = {"rc_map": rc_map_error}
 
 
 def smix_input_error(value):

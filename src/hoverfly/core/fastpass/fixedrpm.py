@@ -114,18 +114,25 @@ def _motor(co, st, tb, m, r, p):
             w = target
         co[c + 3] = w
         if w > 0 and target > 0:  # a notch fading out keeps its last centre: its frequency is unknown
-            i = pos >> 8
-            fr = pos & 255
-            cs = tb[i]
-            cs = cs + _mul(fr, tb[i + 1] - cs, 8)
-            al = tb[T_ALPHA + i]
-            al = al + _mul(fr, tb[T_ALPHA + i + 1] - al, 8)
-            d = _ONE14 + al
-            b0 = (_ONE28 + (d >> 1)) // d
-            co[c] = b0
-            co[c + 1] = 0 - _mul(b0, cs, 14)
-            co[c + 2] = _mul(_ONE14 - al, b0, 14)
+            w = notch_coefficients(co, c, tb, pos)  # (a call is written out only where it gives a value)
     return changed
+
+
+def notch_coefficients(co, c, tb, pos):
+    """A notch's b0, b1, a2 into co[c..c+2] (Q14) for its centre at table position pos (Q8, below 256 x 256),
+    from tb's 2 cos(w) and sin(w) / (2 Q) interpolated (core/fastpass/fixeddyn.py's notches too). Returns b0."""
+    i = pos >> 8
+    fr = pos & 255
+    cs = tb[i]
+    cs = cs + _mul(fr, tb[i + 1] - cs, 8)
+    al = tb[T_ALPHA + i]
+    al = al + _mul(fr, tb[T_ALPHA + i + 1] - al, 8)
+    d = _ONE14 + al
+    b0 = (_ONE28 + (d >> 1)) // d
+    co[c] = b0
+    co[c + 1] = 0 - _mul(b0, cs, 14)
+    co[c + 2] = _mul(_ONE14 - al, b0, 14)
+    return b0
 
 
 # fastpass: FixedRpmFilter.update co:i st:i tb:i rpm:i gyro:f
@@ -172,6 +179,16 @@ def rpm_pass(co, st, tb, rpm, gyro):
 def _q14(v):
     """A float in Q14, rounded."""
     return int(math.floor(v * _ONE14 + 0.5))
+
+
+def notch_table(tb, q):
+    """tb (TB_SIZE words): 2 cos(w) and sin(w) / (2 q) at w = pi i / 256, i = 0..256, in Q14."""
+    inv_2q = 1.0 / (2.0 * q)
+    for i in range(TB_POINTS):
+        w = math.pi * i / 256.0
+        c2 = _q14(2.0 * math.cos(w))
+        tb[i] = c2 if c2 < 32767 else 32767
+        tb[T_ALPHA + i] = _q14(math.sin(w) * inv_2q)
 
 
 class FixedRpmFilter:
@@ -222,19 +239,13 @@ class FixedRpmFilter:
         co[C_LOST] = f.lost_passes
         for h in range(MAX_HARMONICS):
             co[C_HW + h] = _q14(f.weights[h])
-        tb = self.tb
-        inv_2q = 1.0 / (2.0 * f.q)
-        for i in range(TB_POINTS):
-            w = math.pi * i / 256.0
-            c2 = _q14(2.0 * math.cos(w))
-            tb[i] = c2 if c2 < 32767 else 32767
-            tb[T_ALPHA + i] = _q14(math.sin(w) * inv_2q)
+        notch_table(self.tb, f.q)
         self.reset()
         if HAS_ACCEL:
             tab = self._tab
             _viper.bind(tab, 0, co)
             _viper.bind(tab, 1, self.st)
-            _viper.bind(tab, 2, tb)
+            _viper.bind(tab, 2, self.tb)
             _viper.bind(tab, 3, self._rpm)
             _viper.bind(tab, 4, self._gyro)
             _viper.bind(tab, 5, _viper.LOG2)

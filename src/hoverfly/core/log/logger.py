@@ -950,8 +950,10 @@ class Logger:
         """hoverfly_notch for a craft whose ESCs answer (bidirectional DShot) or with a dynamic notch: what the
         RPM filter and the dynamic notch sit on, for the log report's spectrum."""
         f = self.flight
-        dyn = getattr(f, "dyn_notch", None)
-        dyn = dyn if dyn is not None and dyn.active else None
+        dyn = getattr(f, "fixed_dyn", None)  # the stage that runs: the fixed one where it does
+        if dyn is None or not dyn.active:
+            dyn = getattr(f, "dyn_notch", None)
+            dyn = dyn if dyn is not None and dyn.active else None
         if not f.output.bidir and dyn is None:
             return
         rpm = f.signals.motor_rpm

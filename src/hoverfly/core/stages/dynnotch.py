@@ -19,10 +19,9 @@ magnitude a third of the searched bins stay below) and PROMINENCE times the spec
 side. A notch with no peak to follow keeps its frequency and fades out (depth to 0 over about ten
 updates), so a quiet gyro is not notched at random and a peak that comes back is notched at once.
 
-Float only: there is no fixed-point form yet. On CPython (the simulator) Flight runs the float gyro
-filters while it is on (the fixed IMU filter declines, as for the static notch); on MicroPython the
-parameter check refuses dyn_notch_count > 0 with the reason (core/config/params.py dyn_notch_error): in
-float its SDFT allocates 11-24 kB a pass there (bench/notch_filters.py), where the pass's budget is 256 B.
+The fixed-point form, for MicroPython's zero-allocation pass, is `dyn_pass` in core/fastpass/fixeddyn.py:
+the same steps on integers, run where the fixed IMU filter runs. This float stage allocates 11-24 kB a
+pass on MicroPython (bench/notch_filters.py): it is the simulator's.
 """
 
 import math
