@@ -126,3 +126,62 @@ def test_the_micropython_firmware_flies_the_plane_as_the_fixed_point_core_does_i
         if abs(b["to"] - b["from"]) == 30.0:
             assert b["t90_ms"] <= 1000.0 and b["overshoot_pct"] <= 15.0 and abs(b["steady_error"]) <= 2.0, b
     assert [(e["event"], e["t_s"]) for e in mp["events"]] == [(e["event"], e["t_s"]) for e in cp["events"]]
+
+
+MODES_TOML = """
+name = "plane-modes"
+airframe = "trainer"
+duration_s = 16
+mode = "angle"
+
+[params]
+manual_ch = 7
+
+[start]
+altitude_m = 80
+airspeed_m_s = 13
+
+[[at]]
+t = 6.0
+arm = true
+[[at]]
+t = 6.1
+throttle = 0.35
+[[at]]
+t = 8.0
+channel = { ch = 7, us = 2000 }
+[[at]]
+t = 9.0
+roll = 0.5
+[[at]]
+t = 9.6
+roll = 0.0
+[[at]]
+t = 11.0
+channel = { ch = 7, us = 1000 }
+"""
+
+
+def test_manual_moves_the_surfaces_with_the_sticks_and_angle_levels_the_wings_again():
+    # MANUAL (AUX3 here): half right stick (a quarter of the aileron through the expo) for 0.6 s rolls the
+    # plane right and, the stick centred, nothing levels it (the surfaces follow the sticks); back in ANGLE the
+    # wings come level.
+    from hoverfly.sim.scenario import parse_scenario
+
+    run = SimRun("trainer", parse_scenario(MODES_TOML, "plane-modes"), seed=1)
+    seen = {}
+
+    def watch(r):
+        t = round(r.board.sim_us * 1e-6, 3)
+        if t in (8.9, 9.6, 10.9, 14.0, 16.0):
+            seen[t] = math.degrees(r.vehicle.euler_rad()[0])
+
+    run.on_step = watch
+    r = run.run()
+    modes = [e["detail"] for e in r["events"] if e["event"] == "mode"]
+    assert modes[-2:] == ["manual", "angle"], modes
+    assert abs(seen[8.9]) < 3.0  # MANUAL with the sticks centred: the plane flies on as trimmed
+    assert seen[9.6] > 15.0  # rolled right by the aileron, no bank limit in MANUAL
+    assert seen[10.9] > 10.0  # and stays banked: nothing levels it
+    assert abs(seen[14.0]) < 5.0 and abs(seen[16.0]) < 2.0  # ANGLE levels it again
+    assert not r["crashed"] and r["stalls"] == []
