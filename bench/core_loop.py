@@ -63,8 +63,9 @@ if sys.implementation.name == "micropython":
                     __import__("hoverfly." + _fw)
                 except (SyntaxError, ImportError):
                     pass
-        if _name == "core.stages.output" and "--rpm" in sys.argv:  # the RPM filter's, which Flight imports then
-            for _rpm in ("core.stages.rpmfilter", "accel.rpmfilter", "core.fastpass.fixedrpm"):
+        if _name == "core.stages.output" and ("--rpm" in sys.argv or "--dyn" in sys.argv):  # Flight imports them then
+            for _rpm in ("core.stages.rpmfilter", "accel.rpmfilter", "core.fastpass.fixedrpm", "core.stages.dynnotch",
+                         "accel.dynnotch", "core.fastpass.fixeddyn"):
                 gc.collect()
                 try:
                     __import__("hoverfly." + _rpm)
@@ -93,6 +94,8 @@ from hoverfly.protocols.dshot import erpm_reply_word, gcr_encode
 
 # --rpm N: bidirectional DShot with the RPM filter at N harmonics, the ESCs answering every frame with eRPM
 RPM_HARMONICS = int(sys.argv[sys.argv.index("--rpm") + 1]) if "--rpm" in sys.argv else 0
+# --dyn N: the dynamic notch with N notches an axis (its fixed-point form, with the fixed IMU filter)
+DYN_NOTCHES = int(sys.argv[sys.argv.index("--dyn") + 1]) if "--dyn" in sys.argv else 0
 # --plane: an airplane's flight (the fixed-wing controller and the servo mix) instead of the quad's
 PLANE = "--plane" in sys.argv
 
@@ -193,6 +196,8 @@ def armed_flight():
     if RPM_HARMONICS:
         f.params.set("dshot_bidir", 1)
         f.params.set("rpm_harmonics", RPM_HARMONICS)
+    if DYN_NOTCHES:
+        f.params.set("dyn_notch_count", DYN_NOTCHES)
     f.start(0)
     t = 0
     for _ in range(3000):

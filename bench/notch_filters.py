@@ -1,4 +1,4 @@
-"""Cost of one pass of the gyro notch filters alone: the RPM filter (float and fixed point) and the dynamic notch.
+"""Cost of one pass of the gyro notch filters alone: the RPM filter and the dynamic notch, float and fixed point.
 
 Runs under CPython and MicroPython (64- and 32-bit VMs); prints one JSON object: per stage, µs and bytes
 allocated a call (bytes from gc.mem_alloc() with the collector off; 0 on CPython, which does not count
@@ -18,7 +18,7 @@ import sys
 
 from hoverfly.compat import IS_MICROPYTHON, collect_garbage, disable_gc, enable_gc, mem_alloc, ticks_diff, ticks_us
 from hoverfly.core.config.params import Params
-from hoverfly.core.fastpass import fixedrpm
+from hoverfly.core.fastpass import fixeddyn, fixedrpm
 from hoverfly.core.signals import Signals
 from hoverfly.core.stages.dynnotch import DynNotch
 from hoverfly.core.stages.rpmfilter import RpmFilter
@@ -55,7 +55,7 @@ def _measure(fn, gyro):
 
 def main():
     result = {"runtime": sys.implementation.name, "calls": CALLS, "word_bits": 64 if sys.maxsize > 2 ** 32 else 32,
-              "fixed_rpm_viper": fixedrpm.HAS_ACCEL}
+              "fixed_rpm_viper": fixedrpm.HAS_ACCEL, "fixed_dyn_viper": fixeddyn.HAS_ACCEL}
     for harmonics in (1, 3):
         p = Params()
         p.set("rpm_harmonics", harmonics)
@@ -92,7 +92,16 @@ def main():
             d.update(g)
 
         us, b = _measure(dyn_pass, g)
-        result["dyn_notch_%d" % count] = {"us": round(us, 2), "bytes": round(b, 1)}
+        result["dyn_float_%d" % count] = {"us": round(us, 2), "bytes": round(b, 1)}
+        s = Signals()
+        fx = fixeddyn.FixedDynNotch()
+        fx.configure(d, s, True)
+
+        def dyn_fixed_pass(n, fx=fx):
+            fx.update()
+
+        us, b = _measure(dyn_fixed_pass, s.gyro_rad_s)
+        result["dyn_fixed_%d" % count] = {"us": round(us, 2), "bytes": round(b, 1)}
     items = ['"%s": %s' % (k, _json(v)) for k, v in result.items()]
     print("{" + ", ".join(items) + "}")
 
