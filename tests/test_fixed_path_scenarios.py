@@ -9,7 +9,8 @@ arming refusals), is flown again with the fixed-point Python stages, by calling 
 themselves: the same flights, the same pilot's judgement, no copy of an assertion.
 
 Every flight flown here is checked to have taken the fixed path: the fixed IMU filter, estimator and
-rate loop ran and their float counterparts never did.
+rate loop (a plane's: its fixed-wing law, core/fastpass/fixedfw.py) ran and their float counterparts never
+did. The planes (tests/test_plane_flight.py) bring MANUAL, the bank steps, the glide and the hand launch.
 """
 
 import inspect
@@ -19,13 +20,16 @@ import pytest
 import test_aux_modes as aux
 import test_flight_scenarios as flights
 import test_outputs_flight as outputs
+import test_plane_flight as planes
 import test_safety_scenarios as safety
 from hoverfly.core.fastpass.fixedatt import FixedAttitude
+from hoverfly.core.fastpass.fixedfw import FixedFw
 from hoverfly.core.fastpass.fixedimu import FixedImuFilter
 from hoverfly.core.fastpass.fixedrate import FixedRate
 from hoverfly.core.stages.control import Controller
 from hoverfly.core.stages.estimator import Mahony
 from hoverfly.core.stages.filters import GyroFilter
+from hoverfly.core.stages.fwcontrol import FwController
 from hoverfly.sim import runner
 from test_safety_scenarios import autopilot_run  # noqa: F401 - the autopilot flight, flown again here
 
@@ -55,11 +59,22 @@ SUBSET = (
     (aux, "test_failsafe_switch_kill_disarms_within_one_rx_frame", {}, None),
     (aux, "test_airmode_switch_turns_air_mode_on_and_off_in_flight", {}, None),
     (outputs, "test_output_failsafe_cuts_the_motors_100_ms_into_a_controller_stall", {}, None),
+    # planes (issue 23): MANUAL, ANGLE's bank steps, the glide failsafe, the hand launch and box
+    (planes, "test_manual_moves_the_surfaces_with_the_sticks_and_angle_levels_the_wings_again", {}, None),
+    (planes, "test_a_30_degree_bank_step_reaches_90_percent_within_1_s_without_overshoot_or_steady_error",
+     {"airframe": "wing", "seed": 1}, None),
+    (planes, "test_rx_loss_at_cruise_glides_wings_level_with_the_motor_off_to_the_ground",
+     {"airframe": "trainer", "seed": 1}, None),
+    (planes, "test_a_hand_launched_plane_climbs_and_flies_the_box_in_angle_without_stalling",
+     {"airframe": "trainer", "seed": 1}, None),
 )
 
 # The stages the fixed path runs instead of the float ones, and the float ones that must stay idle.
 _FIXED = ((FixedImuFilter, "update"), (FixedAttitude, "step"), (FixedRate, "update"))
 _FLOAT = ((GyroFilter, "update"), (Mahony, "update"), (Controller, "update"))
+# a plane's: its controller in place of the quad's rate loop
+_FIXED_PLANE = ((FixedImuFilter, "update"), (FixedAttitude, "step"), (FixedFw, "update"))
+_FLOAT_PLANE = ((GyroFilter, "update"), (Mahony, "update"), (FwController, "update"))
 
 
 def _ids():
@@ -102,14 +117,16 @@ def watch():
             w.calls = {}
             result = real_run(self)
             w.flights += 1
-            ran = {cls.__name__ + "." + meth: w.calls.get((cls, meth), 0) for cls, meth in _FIXED}
-            floats = {cls.__name__ + "." + meth: w.calls.get((cls, meth), 0) for cls, meth in _FLOAT}
+            plane = self.plane_judge is not None
+            fixed, flt = (_FIXED_PLANE, _FLOAT_PLANE) if plane else (_FIXED, _FLOAT)
+            ran = {cls.__name__ + "." + meth: w.calls.get((cls, meth), 0) for cls, meth in fixed}
+            floats = {cls.__name__ + "." + meth: w.calls.get((cls, meth), 0) for cls, meth in flt}
             assert all(ran.values()) and not any(floats.values()), (
                 "this flight did not fly the fixed-point path the Pico flies (calls: fixed %r, float %r)"
                 % (ran, floats))
             return result
 
-        for cls, meth in _FIXED + _FLOAT:
+        for cls, meth in set(_FIXED + _FLOAT + _FIXED_PLANE + _FLOAT_PLANE):
             mp.setattr(cls, meth, _counting(w, cls, meth, getattr(cls, meth)))
         mp.setattr(runner, "build_params", build_params)
         mp.setattr(runner, "load_scenario", load_scenario)
