@@ -1200,6 +1200,8 @@ class Generator:
             then = None
             if call is None and isinstance(s, ast.If) and _kernel_call(ast.Expr(s.test), self.kernel)[0] is not None:
                 # if kernel(...): the kernel's result in a local, then the if on it as object code
+                if not any(isinstance(n, ast.Return) and n.value is not None for n in ast.walk(kernel)):
+                    _fail(s, "if %s(...): the kernel returns no value to test" % self.kernel)
                 call = s.test
                 target = self.fresh("result", scope)
                 then = ast.If(ast.Name(target, ast.Load()), s.body, s.orelse)
