@@ -227,7 +227,7 @@ def main():
         "shares_pct": shares,
         "us_per_step": us_per_step,
     }
-    if not args.no_profile:
+    if not args.no_profile and not out["native_modules"]:  # cProfile does not see into compiled modules
         out["profile_shares_pct"] = profile_shares(args.scenario, args.airframe)
     print(json.dumps(out))
 

@@ -25,7 +25,8 @@ for scenario, seed, extra in json.loads(sys.argv[1]):
     for k in ("wall_time_s", "realtime_factor", "loop"):
         r.pop(k)
     out.append(r)
-print(json.dumps({"flights": out, "native": native.report()}, sort_keys=True))
+import hoverfly.sim.physics as physics
+print(json.dumps({"flights": out, "native": native.report(), "physics_file": physics.__file__}, sort_keys=True))
 """
 
 _CASES = [["hover", 1, {}], ["hover", 7, {"esc": "dshot300", "rx": "sbus"}], ["flip", 2, {}], ["rx-loss", 3, {}],
@@ -53,6 +54,7 @@ def test_flights_on_native_twins_are_bit_identical_to_flights_on_the_sources(tmp
 
     assert set(_TWINS) <= set(on["native"]["native"])  # the flight did run on them
     assert off["native"] == {}
+    assert on["physics_file"] == off["physics_file"] == str(native.source_path("hoverfly.sim.physics"))
     assert on["flights"] == off["flights"]  # every figure, event and step, to the last bit
 
 

@@ -59,6 +59,7 @@ MODULES = (
     "hoverfly.protocols.crsf",
     "hoverfly.protocols.rxcodec",
     "hoverfly.protocols.crc",
+    "hoverfly.protocols.bridge",  # the firmware bridge's host end (sim/bridge.py finds files by __file__)
 )
 
 # Cython as a compiler of plain Python: no C types guessed for locals (a C double's `**` or `%` is not
@@ -88,6 +89,20 @@ def twin_path(name, source_digest, directory=None):
     return (directory or cache_dir()) / ("%s.%s%s" % (name, source_digest, _SUFFIX))
 
 
+class _TwinLoader(importlib.machinery.ExtensionFileLoader):
+    """Loads a twin, and gives the module its source's __file__: code that reads a module's source or finds
+    files beside it (fastgen, the bridge) finds them where they are."""
+
+    def __init__(self, name, path, source):
+        importlib.machinery.ExtensionFileLoader.__init__(self, name, path)
+        self.source = source
+
+    def exec_module(self, module):
+        module.__file__ = self.source
+        importlib.machinery.ExtensionFileLoader.exec_module(self, module)
+        module.__file__ = self.source
+
+
 class NativeFinder:
     """On sys.meta_path: a listed module whose current source has a twin is loaded from the twin."""
 
@@ -108,7 +123,7 @@ class NativeFinder:
             self.python.append(fullname)
             return None
         self.loaded.append(fullname)
-        loader = importlib.machinery.ExtensionFileLoader(fullname, str(so))
+        loader = _TwinLoader(fullname, str(so), spec.origin)
         return importlib.util.spec_from_file_location(fullname, str(so), loader=loader)
 
 
