@@ -117,3 +117,31 @@ def test_the_dynamic_notch_alone_finds_the_motor_peak_and_cuts_it_by_20_db(pid_m
         assert abs(out[0] - motor_hz) < 3.0, (axis, out[0], motor_hz)
         db, _ = trace.peak_db(axis, motor_hz)
         assert db <= -20.0, (axis, db)
+
+
+def test_the_log_report_shows_the_motor_peak_cut_and_the_filter_delay(tmp_path):
+    from hoverfly.logs import analysis
+    from hoverfly.logs.data import load
+    from hoverfly.logs.report import write_report
+
+    path = str(tmp_path / "hover.ulg")
+    run = SimRun("5inch", "hover", seed=2, overrides=RPM_ON + (("dyn_notch_count", 1),), duration_s=9.0,
+                 log_path=path)
+    run.run()
+    log = load(path)
+    found = analysis.notch_frequencies(log)
+    assert len(found["motor_hz"]) == 4 and all(150.0 < hz < 190.0 for hz in found["motor_hz"])
+    assert [label for _, label in found["rpm_notches_hz"]] == ["RPM filter: motor %d x1" % m for m in (1, 2, 3, 4)]
+    assert found["dyn_notch_hz"] == [[], [], []]  # nothing left for it once the RPM filter has the motors
+    rows = analysis.motor_peak_attenuation(log)
+    first = [r for r in rows if abs(r[1] - found["motor_hz"][0]) < 3.0]
+    assert len(first) == 3 and all(db <= -20.0 for _, _, _, _, db in first), rows
+    # the delay at 100 Hz: four Q 5 notches near 170 Hz (about 0.5 ms each) on top of the 250 Hz PT1's 0.3 ms
+    assert 1.5 < analysis.filter_delay_ms(log, 100.0) < 3.5
+    log.params["rpm_harmonics"] = 0  # the chain as if the filter were off: the PT1 alone
+    assert abs(analysis.filter_delay_ms(log, 100.0) - 0.31) < 0.03
+    log.params["rpm_harmonics"] = 1
+    out = write_report(log, str(tmp_path / "r"))
+    page = open(out["index"]).read()
+    assert "<h2>Gyro filters</h2>" in page and "Group delay of the gyro filter chain at 100 Hz" in page
+    assert any(p.endswith("gyro_spectrum.png") for p in out["plots"])
