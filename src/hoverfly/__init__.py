@@ -6,10 +6,7 @@ VERSION = (0, 1, 0)
 __version__ = "0.1.0"
 
 if sys.implementation.name == "cpython":
-    import os
+    # HOVERFLY_NATIVE=1: the simulated flight's modules from their compiled twins, where built (hoverfly/native.py)
+    from hoverfly import native
 
-    if os.environ.get("HOVERFLY_NATIVE", "0") not in ("", "0"):
-        # The simulated flight's modules from their compiled twins, where built (hoverfly/native.py).
-        from hoverfly import native
-
-        native.install()
+    native.install_from_env()

@@ -17,12 +17,11 @@ the build, or never built, is imported from its .py as usual. So a stale build c
 never change it.
 """
 
-import hashlib
-import importlib.machinery
-import importlib.util
 import os
-import pathlib
 import sys
+
+# hoverfly/__init__.py imports this module on every CPython start (install_from_env): what only a build or an
+# installed finder needs (hashlib, pathlib, importlib's loaders, Cython) is imported where it is used.
 
 # What a lockstep step runs: the simulator's models and the flight core's pass, tasks and codecs. Modules
 # that find their files by __file__ (scenarios, airframes, the bridge) stay Python: a twin lives elsewhere.
@@ -66,11 +65,18 @@ MODULES = (
 # Python's), and no contraction of a * b + c into one rounding (an FMA, where the CPU has one).
 _DIRECTIVES = {"language_level": 3, "infer_types": False}
 _CFLAGS = ["-ffp-contract=off"]
-_SUFFIX = importlib.machinery.EXTENSION_SUFFIXES[0]
-_SRC = pathlib.Path(__file__).resolve().parent.parent  # the folder holding hoverfly/
+_SRC = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))  # the folder holding hoverfly/
+
+
+def _suffix():
+    import importlib.machinery
+
+    return importlib.machinery.EXTENSION_SUFFIXES[0]
 
 
 def cache_dir():
+    import pathlib
+
     d = os.environ.get("HOVERFLY_NATIVE_DIR")
     if d:
         return pathlib.Path(d)
@@ -78,29 +84,34 @@ def cache_dir():
 
 
 def source_path(name):
-    return _SRC.joinpath(*name.split(".")).with_suffix(".py")
+    import pathlib
+
+    return pathlib.Path(_SRC).joinpath(*name.split(".")).with_suffix(".py")
 
 
 def digest(path):
+    import hashlib
+    import pathlib
+
     return hashlib.sha256(pathlib.Path(path).read_bytes()).hexdigest()[:20]
 
 
 def twin_path(name, source_digest, directory=None):
-    return (directory or cache_dir()) / ("%s.%s%s" % (name, source_digest, _SUFFIX))
+    return (directory or cache_dir()) / ("%s.%s%s" % (name, source_digest, _suffix()))
 
 
-class _TwinLoader(importlib.machinery.ExtensionFileLoader):
-    """Loads a twin, and gives the module its source's __file__: code that reads a module's source or finds
-    files beside it (fastgen, the bridge) finds them where they are."""
+def _twin_loader(name, path, source):
+    """A loader of the twin at path that gives the module its source's __file__: code that reads a module's
+    source or finds files beside it (fastgen, the bridge) finds them where they are."""
+    import importlib.machinery
 
-    def __init__(self, name, path, source):
-        importlib.machinery.ExtensionFileLoader.__init__(self, name, path)
-        self.source = source
+    class TwinLoader(importlib.machinery.ExtensionFileLoader):
+        def exec_module(self, module):
+            module.__file__ = source
+            importlib.machinery.ExtensionFileLoader.exec_module(self, module)
+            module.__file__ = source
 
-    def exec_module(self, module):
-        module.__file__ = self.source
-        importlib.machinery.ExtensionFileLoader.exec_module(self, module)
-        module.__file__ = self.source
+    return TwinLoader(name, path)
 
 
 class NativeFinder:
@@ -115,6 +126,9 @@ class NativeFinder:
     def find_spec(self, fullname, path=None, target=None):
         if fullname not in self.modules:
             return None
+        import importlib.machinery
+        import importlib.util
+
         spec = importlib.machinery.PathFinder.find_spec(fullname, path)
         if spec is None or not (spec.origin or "").endswith(".py"):
             return None
@@ -123,7 +137,7 @@ class NativeFinder:
             self.python.append(fullname)
             return None
         self.loaded.append(fullname)
-        loader = _TwinLoader(fullname, str(so), spec.origin)
+        loader = _twin_loader(fullname, str(so), spec.origin)
         return importlib.util.spec_from_file_location(fullname, str(so), loader=loader)
 
 
@@ -140,6 +154,12 @@ def install(modules=MODULES, directory=None):
     return _finder
 
 
+def install_from_env():
+    """install() if HOVERFLY_NATIVE is set to anything but 0 (hoverfly/__init__.py calls it)."""
+    if os.environ.get("HOVERFLY_NATIVE", "0") not in ("", "0"):
+        install()
+
+
 def report():
     """Which listed modules this process runs native and which from Python ({} when not installed)."""
     if _finder is None:
@@ -151,6 +171,7 @@ def _build_one(name, directory, work):
     """Compile one module to its twin; returns (name, None) or (name, why it failed)."""
     import contextlib
     import io
+    import pathlib
     import shutil
 
     from Cython.Build import cythonize
@@ -181,7 +202,7 @@ def _build_one(name, directory, work):
     part = out.with_name(out.name + ".part")
     shutil.copyfile(built, part)
     os.replace(part, out)  # whole or absent: a process importing meanwhile never sees half a file
-    for old in directory.glob("%s.*%s" % (name, _SUFFIX)):  # twins of earlier sources
+    for old in directory.glob("%s.*%s" % (name, _suffix())):  # twins of earlier sources
         if old != out:
             old.unlink()
     return name, None
@@ -189,6 +210,7 @@ def _build_one(name, directory, work):
 
 def build(modules=MODULES, directory=None, jobs=2, progress=None):
     """Compile every listed module whose current source has no twin yet; returns {name: why} of failures."""
+    import pathlib
     import tempfile
     from concurrent.futures import ProcessPoolExecutor
 
@@ -211,13 +233,15 @@ def build(modules=MODULES, directory=None, jobs=2, progress=None):
 
 def status(modules=MODULES, directory=None):
     """{name: "current" | "stale" | "none"} for each listed module."""
+    import pathlib
+
     directory = pathlib.Path(directory or cache_dir())
     out = {}
     for name in modules:
         src = source_path(name)
         if twin_path(name, digest(src), directory).is_file():
             out[name] = "current"
-        elif list(directory.glob("%s.*%s" % (name, _SUFFIX))):
+        elif list(directory.glob("%s.*%s" % (name, _suffix()))):
             out[name] = "stale"
         else:
             out[name] = "none"
