@@ -12,6 +12,7 @@ Prints one JSON object:
 
     .venv/bin/python bench/sim_rtf.py [--scenario hover] [--airframe 5inch] [--runs 3] [--no-profile]
     .venv/bin/python bench/sim_rtf.py --firmware micropython [--duration 6]
+    .venv/bin/python bench/sim_rtf.py --bridge   # both: the bridged flight's figures under "bridge"
     .venv/bin/python bench/sim_rtf.py --airframe trainer   # a plane (bank-steps): JSBSim and the fixed-wing core
     .venv/bin/python bench/sim_rtf.py --airframe trainer --plane-side   # a plane: JSBSim + IMU model only
     HOVERFLY_NATIVE=1 .venv/bin/python bench/sim_rtf.py    # on the native twins (python -m hoverfly.native build)
@@ -124,14 +125,15 @@ def timed_shares(scenario, airframe):
             {k: round(v / steps * 1e6, 2) for k, v in sorted(net.items(), key=lambda x: -x[1])})
 
 
-def bridge(args):
+def bridge(args, duration_s=None):
+    """The bridged flight's figures, best of --runs."""
     import resource
 
     best = None
     for _ in range(args.runs):
         c0 = resource.getrusage(resource.RUSAGE_CHILDREN)
         s0 = resource.getrusage(resource.RUSAGE_SELF)
-        r = fly(args.scenario, args.airframe, seed=1, duration_s=args.duration, firmware="micropython")
+        r = fly(args.scenario, args.airframe, seed=1, duration_s=duration_s or args.duration, firmware="micropython")
         c1 = resource.getrusage(resource.RUSAGE_CHILDREN)
         s1 = resource.getrusage(resource.RUSAGE_SELF)
         steps = r["firmware"]["steps"]
@@ -146,7 +148,7 @@ def bridge(args):
         }
         if best is None or out["realtime_factor"] > best["realtime_factor"]:
             best = out
-    print(json.dumps(best))
+    return best
 
 
 def plane_side(args):
@@ -190,13 +192,15 @@ def main():
     ap.add_argument("--no-profile", action="store_true")
     ap.add_argument("--firmware", choices=("cpython", "micropython"), default="cpython")
     ap.add_argument("--duration", type=float, default=None, help="seconds to fly (default: the scenario's)")
+    ap.add_argument("--bridge", action="store_true",
+                    help="also fly 6 s over the firmware bridge (MicroPython) and add its figures as 'bridge'")
     ap.add_argument("--plane-side", action="store_true", help="a plane: the simulator's side alone (JSBSim, IMU)")
     args = ap.parse_args()
     plane = load_airframe(args.airframe).get("kind") == "plane"
     if args.scenario is None:
         args.scenario = "bank-steps" if plane else "hover"
     if args.firmware == "micropython":
-        bridge(args)
+        print(json.dumps(bridge(args)))
         return
     if plane and args.plane_side:
         plane_side(args)
@@ -227,6 +231,8 @@ def main():
         "shares_pct": shares,
         "us_per_step": us_per_step,
     }
+    if args.bridge:
+        out["bridge"] = bridge(args, 6.0)
     if not args.no_profile and not out["native_modules"]:  # cProfile does not see into compiled modules
         out["profile_shares_pct"] = profile_shares(args.scenario, args.airframe)
     print(json.dumps(out))
