@@ -7,6 +7,4 @@ __version__ = "0.1.0"
 
 if sys.implementation.name == "cpython":
     # HOVERFLY_NATIVE=1: the simulated flight's modules from their compiled twins, where built (hoverfly/native.py)
-    from hoverfly import native
-
-    native.install_from_env()
+    from hoverfly import nativeenv  # noqa: F401

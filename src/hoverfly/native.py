@@ -20,8 +20,8 @@ never change it.
 import os
 import sys
 
-# hoverfly/__init__.py imports this module on every CPython start (install_from_env): what only a build or an
-# installed finder needs (hashlib, pathlib, importlib's loaders, Cython) is imported where it is used.
+# What only a build or an installed finder needs (hashlib, pathlib, importlib's loaders, Cython) is imported where
+# it is used: hoverfly/nativeenv.py imports this module at start-up when HOVERFLY_NATIVE is set.
 
 # What a lockstep step runs: the simulator's models and the flight core's pass, tasks and codecs. Modules
 # that find their files by __file__ (scenarios, airframes, the bridge) stay Python: a twin lives elsewhere.
@@ -152,12 +152,6 @@ def install(modules=MODULES, directory=None):
         _finder = NativeFinder(modules, directory or cache_dir())
         sys.meta_path.insert(0, _finder)
     return _finder
-
-
-def install_from_env():
-    """install() if HOVERFLY_NATIVE is set to anything but 0 (hoverfly/__init__.py calls it)."""
-    if os.environ.get("HOVERFLY_NATIVE", "0") not in ("", "0"):
-        install()
 
 
 def report():
