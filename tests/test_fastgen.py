@@ -487,6 +487,89 @@ print("mismatches", bad)
 '''
 
 
+# Floats crossed with integers as the codecs do (drivers/mpu6050.py, protocols/dshot.py): a count times a float32
+# scale given as its parts into an 'f' array, and an integer times a float local floored as the port's float
+# product is (here a float64 port's: exact), the float local clamped to constants first.
+DEMO_FLOATS = '''
+from hoverfly.core.fastpass.fixedmath import float32_of
+
+
+# fastpass: scale_all counts:i parts:i out:f
+def scale_all(counts, parts, out, n):
+    k = float32_of(parts[0], parts[1])
+    for i in range(n):
+        out[i] = counts[i] * k
+    return n
+
+
+# fastpass: products t:f xs:i res:i
+def products(t, xs, res, n):
+    for i in range(n):
+        m = t[i]
+        if m > 1.0:
+            m = 1.0
+        elif not (m >= -1.0):
+            m = 0.0
+        res[i] = int(xs[i] * m)
+    return n
+'''
+
+DRIVER_FLOATS = '''
+import struct
+from array import array
+import demo_floats
+import demo_floats_fast
+
+s = [2024]
+def rnd():
+    s[0] = (s[0] * 1103515245 + 12345) & 0x7FFFFFFF
+    return s[0] >> 4
+
+def bits(x):
+    return struct.unpack("<I", struct.pack("<f", x))[0]
+
+bad = 0
+counts = array("i", [0] * 16)
+parts = array("i", [0, 0])
+oa = array("f", [0.0] * 16)
+ob = array("f", [0.0] * 16)
+for n in range(2000):
+    parts[0] = 0x800000 | (rnd() & 0x7FFFFF) if n % 5 else 0x800000 | ((rnd() & 0x7FF) << 12)  # ties often
+    parts[1] = 60 + rnd() % 120
+    for i in range(16):
+        v = rnd() % (1 << (1 + rnd() % 21))
+        counts[i] = -v if rnd() & 1 else v
+    demo_floats.scale_all(counts, parts, oa, 16)
+    demo_floats_fast.scale_all(counts, parts, ob, 16)
+    for i in range(16):
+        if bits(oa[i]) != bits(ob[i]):
+            bad += 1
+            if bad < 5:
+                print("scale", parts[0], parts[1], counts[i], oa[i], ob[i])
+odd = (0.0, -0.0, 1.0, -1.0, 0.99999994, -0.99999994, 1e-45, -1e-45, 1e-40, 2.0, -2.0, float("inf"), float("-inf"),
+       float("nan"), 0.5, 1.0 / 3, 2.0 ** -24, 1e30)
+t = array("f", [0.0] * 16)
+xs = array("i", [0] * 16)
+ra = array("i", [0] * 16)
+rb = array("i", [0] * 16)
+for n in range(3000):
+    for i in range(16):
+        r = rnd()
+        t[i] = odd[r % len(odd)] if r & 3 == 0 else ((rnd() & 0xFFFFFF) / 16777216.0) * (2.0 ** -(rnd() % 30))
+        if rnd() & 1:
+            t[i] = -t[i]
+        xs[i] = rnd() % (1 << (1 + rnd() % 27))
+    demo_floats.products(t, xs, ra, 16)
+    demo_floats_fast.products(t, xs, rb, 16)
+    for i in range(16):
+        if ra[i] != rb[i]:
+            bad += 1
+            if bad < 5:
+                print("product", t[i], xs[i], ra[i], rb[i])
+print("mismatches", bad)
+'''
+
+
 @pytest.fixture(scope="module")
 def demo_dir(tmp_path_factory):
     d = tmp_path_factory.mktemp("fastgen-demo")
@@ -504,6 +587,9 @@ def demo_dir(tmp_path_factory):
     (d / "demo_bytes.py").write_text(DEMO_BYTES)
     (d / "demo_bytes_fast.py").write_text(fastgen.generate_source(DEMO_BYTES, "demo_bytes.py"))
     (d / "driver_bytes.py").write_text(DRIVER_BYTES)
+    (d / "demo_floats.py").write_text(DEMO_FLOATS)
+    (d / "demo_floats_fast.py").write_text(fastgen.generate_source(DEMO_FLOATS, "demo_floats.py"))
+    (d / "driver_floats.py").write_text(DRIVER_FLOATS)
     return d
 
 
@@ -539,6 +625,11 @@ def test_imported_intrinsics_and_another_modules_helper_give_the_pythons_bits(de
 @pytest.mark.parametrize("vm", ["64-bit", "32-bit"])
 def test_byte_level_kernels_bytes_words_and_module_tables_give_the_pythons_results(demo_dir, vm):
     _run(demo_dir, vm, "driver_bytes.py")
+
+
+@pytest.mark.parametrize("vm", ["64-bit", "32-bit"])
+def test_counts_times_float32_scales_and_integers_times_float_locals_give_the_pythons_bits(demo_dir, vm):
+    _run(demo_dir, vm, "driver_floats.py")
 
 
 def test_a_module_table_is_imported_from_the_kernels_module_and_read_through_a_pointer(demo_dir):
