@@ -15,7 +15,7 @@ Prints one JSON object:
     .venv/bin/python bench/sim_rtf.py --bridge   # both: the bridged flight's figures under "bridge"
     .venv/bin/python bench/sim_rtf.py --airframe trainer   # a plane (bank-steps): JSBSim and the fixed-wing core
     .venv/bin/python bench/sim_rtf.py --airframe trainer --plane-side   # a plane: JSBSim + IMU model only
-    HOVERFLY_NATIVE=1 .venv/bin/python bench/sim_rtf.py    # on the native twins (python -m hoverfly.native build)
+    .venv/bin/python bench/sim_rtf.py --native    # on the native twins (python -m hoverfly.native build first)
 
 native_modules says how many of hoverfly/native.py's modules ran compiled (0: all from their .py files).
 
@@ -29,12 +29,17 @@ processes take turns, so on an idle host the step costs about their sum plus two
 import argparse
 import cProfile
 import json
+import os
 import pstats
+import sys
 import time
 
-from hoverfly import native
-from hoverfly.sim.airframes import load_airframe
-from hoverfly.sim.runner import SimRun, fly
+if "--native" in sys.argv:  # before hoverfly is imported: it installs the twins' finder at import
+    os.environ["HOVERFLY_NATIVE"] = "1"
+
+from hoverfly import native  # noqa: E402
+from hoverfly.sim.airframes import load_airframe  # noqa: E402
+from hoverfly.sim.runner import SimRun, fly  # noqa: E402
 
 _AREAS = (  # path part -> area, first match wins
     ("/core/", "flight core"),
@@ -192,6 +197,8 @@ def main():
     ap.add_argument("--no-profile", action="store_true")
     ap.add_argument("--firmware", choices=("cpython", "micropython"), default="cpython")
     ap.add_argument("--duration", type=float, default=None, help="seconds to fly (default: the scenario's)")
+    ap.add_argument("--native", action="store_true", help="the flight on hoverfly.native's compiled twins "
+                    "(as HOVERFLY_NATIVE=1; build them with python -m hoverfly.native build)")
     ap.add_argument("--bridge", action="store_true",
                     help="also fly 6 s over the firmware bridge (MicroPython) and add its figures as 'bridge'")
     ap.add_argument("--plane-side", action="store_true", help="a plane: the simulator's side alone (JSBSim, IMU)")
