@@ -200,3 +200,16 @@ def test_the_deadband_is_taken_out_and_the_rest_rescaled_so_full_stick_is_full_r
         assert rcmod._stick_q(2000, db) == 1048576
     # a stick held at 1881 us with the 5 us deadband: 376 of 495
     assert abs(rc._stick(1881, 5) - 376.0 / 495.0) < 1e-12
+
+
+def test_anti_gravity_counts_no_take_off_punch_while_i_is_held_off():
+    # below airmode_thr_pct I is off (i_active False): the throttle's jump to flight must not boost it
+    s, c = _controller(_AG)
+    sp = s.setpoint
+    sp.mode = 0
+    for n in range(40):
+        sp.throttle_norm = min(0.3, n * 0.02)
+        c.update(sp, s.attitude, s.gyro_rad_s, 0.001, False, False, s.torque_norm)
+        assert c.ag_boost == 0.0 and c.roll.i_boost == 1.0
+    c.update(sp, s.attitude, s.gyro_rad_s, 0.001, True, False, s.torque_norm)  # I starts at a steady throttle
+    assert c.ag_boost < 1e-6

@@ -114,7 +114,7 @@ S_SAT = const(29)
 S_MIX = const(30)
 S_TERMS_N = const(38)  # passes left until the PID terms and torques are written out again
 S_DM = const(40)  # per axis, 4 words: D-min's range PT2 (Q7) and smoothing PT2 (Q15) stages
-S_AG1 = const(52)  # anti-gravity's PT2 stages (Q12, 1/s) and the last throttle (Q16)
+S_AG1 = const(52)  # anti-gravity's PT2 stages (Q12, 1/s) and the last throttle (Q24)
 S_AG2 = const(53)
 S_AG_THR = const(54)
 ST_SIZE = const(80)
@@ -135,6 +135,7 @@ _ONE16 = const(65536)
 _LIM16 = const(0x800000)  # 2**23
 _LIM24 = const(0x4000000)  # 2**26: +-4 rad in Q24
 _ONE15 = const(32768)
+_ONE24 = const(0x1000000)
 _DERIV_LIM = const(0x4000000)  # 2**26
 _DSP_LIM = const(0x2000000)  # 2**25: 2 rad in Q24, the most an angle setpoint may move in a pass
 _FFA_LIM = const(0x800000)  # 2**23: the angle setpoint's speed, Q16
@@ -269,15 +270,27 @@ def rate_pass(co, st, io, flags, dt_us):
         tpa = _ONE15 - mul(co[TPA_M], thr - co[TPA_BP], co[TPA_S])
     changed = 2 if tpa != st[S_TPA] else 0
     st[S_TPA] = tpa
+    i_active = flags & F_I_ACTIVE
     # anti-gravity: the throttle's speed, weighted to low throttle, through a PT2: I and P boosted by it
+    # (from rest where I starts, as core/stages/control.py's)
     ag = 0
-    if co[AG_ON]:
-        x = thr - st[S_AG_THR]
-        st[S_AG_THR] = thr
+    if co[AG_ON] and not i_active:
+        t24 = _dec(fin[IN_THR], 16777216.0, _ONE24)
+        st[S_AG_THR] = t24 if t24 > 0 else 0
+        st[S_AG1] = 0
+        st[S_AG2] = 0
+    elif co[AG_ON]:
+        # the throttle's change in Q24: a hovering pilot's throttle moves by less than Q16's step in a pass,
+        # and the speed's absolute value would not average that rounding out
+        t24 = _dec(fin[IN_THR], 16777216.0, _ONE24)
+        if t24 < 0:
+            t24 = 0
+        x = t24 - st[S_AG_THR]
+        st[S_AG_THR] = t24
         rising = x > 0
         if x < 0:
             x = -x
-        x = mul(inv_dt, x, 4)  # Q12: at most 2**16 * 15625 / 16, below 2**26
+        x = mul(inv_dt, x, 12)  # Q12: at most 2**24 * 15625 / 4096, below 2**26
         w = (_ONE16 - thr) >> 1  # 1 - throttle, Q15: a coefficient, so below 2**15
         if w > 32767:
             w = 32767
@@ -295,7 +308,6 @@ def rate_pass(co, st, io, flags, dt_us):
             ag = _AG_MAX
         elif ag < 0:
             ag = 0
-    i_active = flags & F_I_ACTIVE
     sat = st[S_SAT]
     for k in range(3):
         b = AXIS + k * AX_SIZE
@@ -583,7 +595,7 @@ class FixedRate:
             st[sd + 3] = _dec(pid.dmin_lowpass.y, 32768.0, _DM_MAX)
         st[S_AG1] = _dec(c.ag_filter.s1, 4096.0, _DERIV_LIM)
         st[S_AG2] = _dec(c.ag_filter.y, 4096.0, _DERIV_LIM)
-        st[S_AG_THR] = _dec(c._ag_last_thr, 65536.0, _ONE16)
+        st[S_AG_THR] = _dec(c._ag_last_thr, 16777216.0, _ONE24)
         st[S_LAST_ROLL] = _dec(c._last_roll_sp, 16777216.0, _LIM24)
         st[S_LAST_PITCH] = _dec(c._last_pitch_sp, 16777216.0, _LIM24)
         st[S_DT] = 0
@@ -620,7 +632,7 @@ class FixedRate:
             pid.dmin_lowpass.y = st[sd + 3] * _INV15
         c.ag_filter.s1 = st[S_AG1] / 4096.0
         c.ag_filter.y = st[S_AG2] / 4096.0
-        c._ag_last_thr = st[S_AG_THR] * _INV16
+        c._ag_last_thr = st[S_AG_THR] * _INV24
         c._last_roll_sp = st[S_LAST_ROLL] * _INV24
         c._last_pitch_sp = st[S_LAST_PITCH] * _INV24
         c.tpa = st[S_TPA] * _INV15

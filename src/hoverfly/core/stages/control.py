@@ -90,12 +90,19 @@ class Controller:
             return -lim
         return rate
 
-    def _anti_gravity(self, thr, dt_s):
+    def _anti_gravity(self, thr, dt_s, i_active):
         """The boost from the throttle's speed (Betaflight 4.3's pidUpdateAntiGravityThrottleFilter)."""
         if thr < 0.0:
             thr = 0.0
         elif thr > 1.0:
             thr = 1.0
+        if not i_active:
+            # No I to boost, and the throttle's jump to take-off is no punch: the boost starts from rest
+            # where I starts (airmode_thr_pct), else it winds I up on the ground and tips the lift-off.
+            self._ag_last_thr = thr
+            self.ag_filter.reset(0.0)
+            self._anti_gravity_off()
+            return
         if dt_s != self._dt_s:
             self._dt_s = dt_s
             self._inv_dt = 1.0 / dt_s
@@ -158,7 +165,7 @@ class Controller:
             tpa = 1.0 - self.tpa_rate * (thr - bp) / (1.0 - bp)
         self.tpa = tpa
         if self.ag_gain != 0.0:
-            self._anti_gravity(thr, dt_s)
+            self._anti_gravity(thr, dt_s, i_active)
         torque_norm[0] = self.roll.update(rate[0], gyro_rad_s[0], dt_s, tpa, i_active, saturated)
         torque_norm[1] = self.pitch.update(rate[1], gyro_rad_s[1], dt_s, tpa, i_active, saturated)
         torque_norm[2] = self.yaw.update(rate[2], gyro_rad_s[2], dt_s, 1.0, i_active, saturated)
