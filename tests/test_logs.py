@@ -185,7 +185,7 @@ def test_fly_log_report_and_replay_give_the_same_step_figures_for_the_same_fligh
         assert lg["t_s"] == pytest.approx(f["t_s"], abs=0.005)  # the same step, one frame later at most
         _agree(f, lg, "fly against log report")
         _agree(lg, rp, "log report against replay")
-        assert lg["to"] == pytest.approx(f["to"], rel=0.01)  # 400 deg/s asked, 397.4 through CRSF's 11 bits
+        assert lg["to"] == pytest.approx(f["to"], rel=0.01)  # 400 deg/s asked, 399.4 through CRSF's 11 bits
 
 
 def _second_order(t_s, wn_rad_s, zeta):
@@ -268,7 +268,7 @@ def test_report_and_steps_json_say_how_the_steps_are_measured(rate_steps, tmp_pa
     _, path = rate_steps
     assert main(["log", "report", path, "--out", str(tmp_path / "r")]) == 0
     out = capsys.readouterr().out
-    assert "step roll rate 0 -> 397.383 deg/s at 5.50 s: rise" in out
+    assert "step roll rate 0 -> 399.363 deg/s at 5.50 s: rise" in out
     index = (tmp_path / "r" / "index.html").read_text()
     assert "Measured on each commanded step" in index and "settle" in index
 
@@ -284,7 +284,7 @@ def test_info_params_csv_and_plot_commands(rate_steps, tmp_path, capsys):
     assert "angle_p_gain" in capsys.readouterr().out  # the scenario's tune
     assert main(["log", "params", path, "--json"]) == 0
     params = json.loads(capsys.readouterr().out)["params"]
-    assert params["p_roll"] == 45 and params["mixer_type"] == "quadx" and params["motor_idle_pct"] == 5.5
+    assert params["p_roll"] == 97 and params["mixer_type"] == "quadx" and params["motor_idle_pct"] == 5.5
     assert main(["log", "csv", path, "--out", str(tmp_path / "csv"), "--topic", "input_rc"]) == 0
     lines = (tmp_path / "csv" / "rate-steps_input_rc.csv").read_text().splitlines()
     assert lines[0].startswith("timestamp,t_s,timestamp_last_signal") and len(lines) > 2000
@@ -319,7 +319,7 @@ def test_the_spectrum_marks_the_filter_cut_offs_the_flight_ran_with(tmp_path):
     fly("hover", "5inch", seed=1, duration_s=1.0, log_path=path,
         overrides=[("gyro_lpf1_hz", 180), ("gyro_lpf2_hz", 300), ("gyro_notch1_hz", 220), ("gyro_notch1_cut", 160)])
     hz = [c[0] for c in filter_cutoffs(load(path))]
-    assert hz == [180, 300, 220, 75]  # lpf1, lpf2 (below Nyquist), the notch, the D-term low-pass
+    assert hz == [180, 300, 220, 70]  # lpf1, lpf2 (below Nyquist), the notch, the 5-inch's D-term low-pass
 
 
 def test_pid_panels_scale_to_p_i_d_not_to_feed_forward_spikes(rate_steps):
