@@ -19,7 +19,7 @@ Formats (value = integer / 2**q):
   to +-4 rad (angle mode feeds their change forward at the loop rate: Q16 would step it by 8 mrad/s);
 - the I-term: Q26 (steps of 1.5e-8 of the mixer range); rate derivatives: Q7 (rad/s^2), clamped
   to 2**26;
-- D-min's boost and factor: Q15 (the boost capped at 4); anti-gravity's throttle speed: Q12 (1/s), its
+- D-min's boost and factor: Q15 (the boost capped at 2); anti-gravity's throttle speed: Q12 (1/s), its
   boost Q10 (capped at 31), an I step capped at half the range before it is boosted;
 - gains and filter coefficients: a 15-bit mantissa m and a shift s, value = m / 2**s.
 A product is `floor(c * x / 2**s)` with |c| < 2**15 and |x| < 2**31; the viper twin splits x in
@@ -81,8 +81,7 @@ AG_K_M = const(101)  # its PT2's stage gain
 AG_K_S = const(102)
 AG_G_M = const(103)  # ag_gain: the smoothed throttle speed (Q12, 1/s) to the boost (Q10)
 AG_G_S = const(104)
-AG_P_M = const(105)  # P's share of the boost (Q10 to Q10)
-AG_P_S = const(106)
+AG_P = const(105)  # P's share of the boost, Q10 (at most 0.85)
 DM_RK_M = const(107)  # D-min's range PT2 (85 Hz) and its smoothing PT2 (35 Hz): stage gains
 DM_RK_S = const(108)
 DM_LK_M = const(109)
@@ -147,7 +146,7 @@ _INV26 = 1.0 / 67108864.0
 _INV15 = 1.0 / 32768.0
 _HALF26 = const(0x2000000)  # 0.5 in Q26: an I step is capped here before anti-gravity boosts it
 _AG_MAX = const(31744)  # 31 in Q10 (pid.AG_BOOST_MAX)
-_DM_MAX = const(131072)  # 4 in Q15 (pid.DMIN_BOOST_MAX)
+_DM_MAX = const(65536)  # 2 in Q15 (pid.DMIN_BOOST_MAX)
 
 _viper = None
 if IS_MICROPYTHON:
@@ -294,7 +293,7 @@ def rate_pass(co, st, io, flags, dt_us):
         w = (_ONE16 - thr) >> 1  # 1 - throttle, Q15: a coefficient, so below 2**15
         if w > 32767:
             w = 32767
-        x = mul(w, mul(w, x, 15), 15)
+        x = mul((w * w) >> 15, x, 15)  # (1 - throttle)**2: w * w below 2**30
         if rising:
             x = mul(w, x, 16)
         y = st[S_AG1]
@@ -320,7 +319,7 @@ def rate_pass(co, st, io, flags, dt_us):
         if co[TPA_P] and t != _ONE15:
             p = mul(t, p, 15)
         if ag and k != 2:
-            p += mul(mul(co[AG_P_M], ag, co[AG_P_S]), p, 10)
+            p += mul((ag * co[AG_P]) >> 10, p, 10)  # ag below 2**15, the share below 2**10
         if i_active:
             i = st[sb + S_I]
             step = mul(co[b + KI_M], mul(dt_us, err, 8), co[b + KI_S])
@@ -393,7 +392,7 @@ def rate_pass(co, st, io, flags, dt_us):
                 g = a
             if g > _DM_MAX:
                 g = _DM_MAX
-            g = pct + mul(_ONE15 - pct, g, 15)
+            g = pct + (((_ONE15 - pct) * g) >> 15)  # below 2**15 * 2**16
             q = st[sd + 2]
             q += mul(co[DM_LK_M], g - q, co[DM_LK_S])
             st[sd + 2] = q
@@ -550,7 +549,7 @@ class FixedRate:
         co[AG_ON] = 1 if c.ag_gain != 0.0 else 0
         co[AG_K_M], co[AG_K_S] = coef(c.ag_filter.k)
         co[AG_G_M], co[AG_G_S] = coef(c.ag_gain * 0.25)  # Q12 in, Q10 out
-        co[AG_P_M], co[AG_P_S] = coef(c.ag_p_share)
+        co[AG_P] = _q(c.ag_p_share, 1024)
         for m in range(8):
             w = MIX + 3 * m
             if m < mixer.n:

@@ -32,9 +32,9 @@ RELAX_THRESHOLD_RAD_S = 30.0 / _RAD_TO_DEG
 DMIN_RANGE_HZ = 85.0
 DMIN_LOWPASS_HZ = 35.0
 DMIN_GAIN_PER_DPS2 = 0.00008 / DMIN_LOWPASS_HZ
-# The boost before its smoothing is capped at 4x: past 1 it only holds D max a little longer, and the
+# The boost before its smoothing is capped at 2x: past 1 it only holds D max a little longer, and the
 # fixed-point pass keeps it within its bits.
-DMIN_BOOST_MAX = 4.0
+DMIN_BOOST_MAX = 2.0
 # Anti-gravity boosts are capped at 31x (the fixed-point pass's Q10 factor below 2**15)
 AG_BOOST_MAX = 31.0
 
