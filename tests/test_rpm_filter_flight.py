@@ -56,7 +56,9 @@ def test_a_hover_with_the_rpm_filter_cuts_the_motor_peak_by_20_db(pid_math):
     assert 140.0 < motor_hz < 200.0  # a 5-inch hovers near 10 000 RPM
     for axis in range(3):
         db, raw_amp = trace.peak_db(axis, motor_hz)
-        assert raw_amp > 0.003  # there is vibration to remove: rad/s at the motors' frequency
+        # there is vibration to remove: rad/s at the motors' frequency (yaw's is the four rotors' sum, which
+        # partly cancels: 0.0014 at this bin under the issue-28 5-inch tune, cut 49 dB)
+        assert raw_amp > (0.003 if axis < 2 else 0.001), (axis, raw_amp)
         assert db <= -20.0, (axis, db)
 
 
