@@ -207,19 +207,18 @@ class AxisPid:
         inv_dt = self._inv_dt
         # D on measurement: a setpoint step kicks nothing, a gyro spike is damped.
         nkd = self._neg_kd
-        sp_accel = (setpoint_rad_s - self._last_setpoint) * inv_dt
         if nkd != 0.0:
             if tpa != 1.0:
                 nkd *= tpa
             dg = self._d_update((gyro_rad_s - self._last_gyro) * inv_dt)
             if self.dmin_on:
-                nkd *= self._dmin(dg, sp_accel)
+                nkd *= self._dmin(dg, (setpoint_rad_s - self._last_setpoint) * inv_dt)
             d = nkd * dg
         else:  # no D gain: keep the filter running so a live D change starts from its state
             self._d_update((gyro_rad_s - self._last_gyro) * inv_dt)
             d = 0.0
         self._last_gyro = gyro_rad_s
-        f = self.kf * sp_accel
+        f = self.kf * (setpoint_rad_s - self._last_setpoint) * inv_dt
         if self.k_static != 0.0:
             f += self.k_static * setpoint_rad_s
         self._last_setpoint = setpoint_rad_s
