@@ -15,7 +15,8 @@ with the allocator working on the heap a board keeps, collection not. (Until 202
 for all the counted passes, so the allocator's free-block search grew with 300 passes of garbage and
 dominated small differences.) Prints one JSON object: {passes, micropython: {ir_per_pass}, cpython:
 {ir_per_pass}} (a runtime that is missing is left out with the reason).
-`--rpm N` counts the flight with the RPM filter at N harmonics (bench/core_loop.py --rpm).
+`--rpm N` counts the flight with the RPM filter at N harmonics (bench/core_loop.py --rpm); `--plane` an
+airplane's (bench/core_loop.py --plane).
 """
 
 import sys
@@ -129,6 +130,9 @@ def main():
     if "--dyn" in sys.argv:  # the dynamic notch (bench/core_loop.py --dyn)
         extra += ["--dyn", sys.argv[sys.argv.index("--dyn") + 1]]
         result["dyn_notch_count"] = int(extra[-1])
+    if "--plane" in sys.argv:  # an airplane's flight (bench/core_loop.py --plane)
+        extra.append("--plane")
+        result["plane"] = True
     mp = micropython_vm()
     runtimes = [("cpython", [sys.executable, me], dict(os.environ, PYTHONHASHSEED="0"))]
     if mp is None:

@@ -225,7 +225,8 @@ def test_the_frame_size_reading_finds_a_function_over_the_limit(tmp_path):
 
 @needs_vm
 def test_the_pass_allocates_within_its_budget_on_micropython():
-    res = _vm([str(BENCH / "core_loop.py")], heap="512k")
+    # 640 KB: the VM compiles the whole tree from source first (a Pico runs the precompiled bundle)
+    res = _vm([str(BENCH / "core_loop.py")], heap="640k")
     assert res.returncode == 0, res.stdout + res.stderr
     figures = json.loads(res.stdout.strip().splitlines()[-1])
     assert figures["runtime"] == "micropython"
