@@ -50,7 +50,7 @@ class BridgeBoard(SampledBoard):
         self.rx_len = 0
         self.motor_out = array("f", [0.0] * 8)
         self.motor_count = 0
-        self.servo_norm = array("f", [0.0] * 4)
+        self.servo_us = array("f", [0.0] * 4)  # the servo mixer's pulse widths, µs
         self.servo_count = 0
         self.led = False
 
@@ -82,12 +82,12 @@ class BridgeBoard(SampledBoard):
             m[i] = motor_out[i]
         self.motor_count = count
 
-    def write_servos(self, servo_norm, count):
-        s = self.servo_norm
+    def write_servos(self, servo_us, count):
+        s = self.servo_us
         if count > len(s):
             count = len(s)
         for i in range(count):
-            s[i] = servo_norm[i]
+            s[i] = servo_us[i]
         self.servo_count = count
 
     def read_battery(self, signals):
@@ -275,7 +275,7 @@ class Firmware:
         for i in range(n):
             pack_into("<f", out, p, mo[i])
             p += 4
-        so = board.servo_norm
+        so = board.servo_us
         for i in range(m):
             pack_into("<f", out, p, so[i])
             p += 4

@@ -14,7 +14,7 @@ Plain Python on purpose (no numpy): the simulator's runner measures every pass w
 flies, the log tools on the logged samples. The simulator measures against the scenario's command
 on the physics; a log holds the set point the controller got and the filtered gyro (or estimated
 attitude) at blackbox_rate_hz, so the two differ by the stick's quantisation on the receiver link
-(an 11-bit CRSF channel: 400 deg/s asked, 397.4 flown), by the frame's latency (up to one frame
+(an 11-bit CRSF channel: 400 deg/s asked, 399.4 flown), by the frame's latency (up to one frame
 period later in the log) and by the gyro filter's noise and delay; tests/test_logs.py holds them
 to the tolerances in docs/logs.md.
 """

@@ -24,7 +24,7 @@ Kinds and payloads:
   flags: STEP_IMU_FRESH, and the open configuration sessions (flight.config_session,
   1 CLI, 2 MSP, 4 maintenance) in bits 1..3.
 - OUT   fw->host  OUT_HEAD_FMT (flags, motors n, servos m, firmware pass µs, autopilot
-  state, autopilot privilege bits), n + m f32 (motor_out, servo_norm), 4 f32 attitude
+  state, autopilot privilege bits), n + m f32 (motor_out, servo pulse widths in µs), 4 f32 attitude
   quaternion, u8 k, k events EVENT_FMT.
 - MSP_RC host->fw MSP_RC_HEAD_FMT (sim_us when it arrived, count) then count u16 channel
   pulses µs (at most MAX_RC_CHANNELS, MSP SET_RAW_RC's limit): the companion computer's MSP

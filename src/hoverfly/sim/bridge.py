@@ -552,9 +552,9 @@ class BridgedFlight:
         p = dec.payload
         motors = p[1]
         servos = p[2]
-        if motors > len(self.signals.motor_out) or servos > len(self.signals.servo_norm):
+        if motors > len(self.signals.motor_out) or servos > len(self.signals.servo_us):
             return "OUT frame with %d motors and %d servos (at most %d and %d)" % (
-                motors, servos, len(self.signals.motor_out), len(self.signals.servo_norm))
+                motors, servos, len(self.signals.motor_out), len(self.signals.servo_us))
         k_at = B.OUT_HEAD_SIZE + 4 * (motors + servos + 4)
         if n < k_at + 1 or n != k_at + 1 + p[k_at] * B.EVENT_SIZE:
             return "OUT frame of %d bytes does not hold what its header says (%d motors, %d servos)" % (
@@ -607,9 +607,10 @@ class BridgedFlight:
         board = self.board
         board.write_motors(out, n)
         if m:
+            us = s.servo_us
             for i in range(m):
-                s.servo_norm[i] = vals[n + i]
-            board.write_servos(s.servo_norm, m)
+                us[i] = int(vals[n + i] + 0.5)  # whole µs, as the firmware's mixer made them
+            board.write_servos(us, m)
         att = s.attitude
         att.q[0] = vals[n + m]
         att.q[1] = vals[n + m + 1]
