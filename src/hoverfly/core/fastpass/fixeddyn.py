@@ -24,7 +24,7 @@ from array import array
 from hoverfly.compat import IS_MICROPYTHON, const
 from hoverfly.core.fastpass.fixedmath import dec as _dec
 from hoverfly.core.fastpass.fixedmath import mul as _mul
-from hoverfly.core.fastpass.fixedrpm import TB_SIZE, notch_coefficients, notch_table
+from hoverfly.core.fastpass.fixedrpm import TB_SIZE, notch_coefficients, notch_step, notch_table
 from hoverfly.core.stages.dynnotch import MAX_NOTCHES, WINDOW
 
 MAX_BINS = const(17)  # WINDOW / 2 - 2 - 2 + 5: the band's bins at most, and two each side
@@ -59,7 +59,6 @@ _W_STEP = const(1638)  # its WEIGHT_STEP (0.1) in Q14
 _ONE14 = const(16384)
 _STEPS_PER_BIN = const(16)  # table positions a bin: the table's 512 steps over loop_hz, the window's 32 bins
 _GYRO_LIM = const(0x800000)  # 2**23: 128 rad/s in Q16
-_Y_LIM = const(0x2000000)
 _Q16 = 65536.0
 _INV16 = 1.0 / 65536.0
 
@@ -233,22 +232,7 @@ def dyn_pass(co, st, tb, gyro):
         v = x[axis]
         for k in range(count):
             n = axis * MAX_NOTCHES + k
-            c = C_NOTCH + 4 * n
-            o = S_STATE + 4 * n
-            x1 = st[o]
-            x2 = st[o + 1]
-            y1 = st[o + 2]
-            y2 = st[o + 3]
-            y = _mul(co[c], v + x2, 14) + _mul(co[c + 1], x1 - y1, 14) - _mul(co[c + 2], y2, 14)
-            if y > _Y_LIM:
-                y = _Y_LIM
-            elif y < 0 - _Y_LIM:
-                y = 0 - _Y_LIM
-            st[o] = v
-            st[o + 1] = x1
-            st[o + 2] = y
-            st[o + 3] = y1
-            v = v + _mul(co[c + 3], y - v, 14)
+            v = notch_step(co, C_NOTCH + 4 * n, st, S_STATE + 4 * n, v)
         gyro[axis] = v * _INV16
 
 

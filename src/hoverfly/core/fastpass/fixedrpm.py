@@ -135,6 +135,26 @@ def notch_coefficients(co, c, tb, pos):
     return b0
 
 
+def notch_step(co, c, st, o, x):
+    """x (Q16) through one weighted notch: coefficients co[c..c+3] (Q14: b0 = b2, b1 = -a1, a2, then the
+    weight), state st[o..o+3] (x1, x2, y1, y2) in direct form 1. The RPM filter's bank and the dynamic
+    notch (fixeddyn.py) both run it; the generator writes it out at each call."""
+    x1 = st[o]
+    x2 = st[o + 1]
+    y1 = st[o + 2]
+    y2 = st[o + 3]
+    y = _mul(co[c], x + x2, 14) + _mul(co[c + 1], x1 - y1, 14) - _mul(co[c + 2], y2, 14)
+    if y > _Y_LIM:
+        y = _Y_LIM
+    elif y < 0 - _Y_LIM:
+        y = 0 - _Y_LIM
+    st[o] = x
+    st[o + 1] = x1
+    st[o + 2] = y
+    st[o + 3] = y1
+    return x + _mul(co[c + 3], y - x, 14)
+
+
 # fastpass: FixedRpmFilter.update co:i st:i tb:i rpm:i gyro:f
 def rpm_pass(co, st, tb, rpm, gyro):
     """One pass (the Python twin): one motor's notches recomputed, then every notch on each gyro axis.
@@ -156,21 +176,7 @@ def rpm_pass(co, st, tb, rpm, gyro):
         x = _dec(gyro[axis], _Q16, _GYRO_LIM)
         o = S_STATE + axis * _AXIS_WORDS
         for k in range(n):
-            c = C_NOTCH + 4 * k
-            x1 = st[o]
-            x2 = st[o + 1]
-            y1 = st[o + 2]
-            y2 = st[o + 3]
-            y = _mul(co[c], x + x2, 14) + _mul(co[c + 1], x1 - y1, 14) - _mul(co[c + 2], y2, 14)
-            if y > _Y_LIM:
-                y = _Y_LIM
-            elif y < 0 - _Y_LIM:
-                y = 0 - _Y_LIM
-            st[o] = x
-            st[o + 1] = x1
-            st[o + 2] = y
-            st[o + 3] = y1
-            x = x + _mul(co[c + 3], y - x, 14)
+            x = notch_step(co, C_NOTCH + 4 * k, st, o, x)
             o += 4
         gyro[axis] = x * _INV16
     return changed
