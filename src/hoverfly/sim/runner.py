@@ -31,6 +31,7 @@ from hoverfly.core.events import (
     EVENT_NAMES,
 )
 from hoverfly.core.flight import Flight
+from hoverfly.core.links.mspserver import MspServer
 from hoverfly.core.safety.arming import REASONS, SOURCE_NAMES
 from hoverfly.core.safety.failsafe import CAUSES, FAULT_NAMES, PROCEDURES
 from hoverfly.core.scheduler import PS_JITTER_MAX
@@ -40,6 +41,7 @@ from hoverfly.core.stages.rc import aux_channel, map_channels
 from hoverfly.core.stages.servos import ServoMixer
 from hoverfly.errors import UserError
 from hoverfly.logs.steps import measure_step
+from hoverfly.protocols import msp
 from hoverfly.sim.airframes import load_airframe
 from hoverfly.sim.board import SimBoard
 from hoverfly.sim.companion import Companion
@@ -217,6 +219,7 @@ class SimRun:
         self._gust_wind = (0.0, 0.0, 0.0)
         self.on_step = None  # optional hook: fn(run) after every pass (logger, ground station)
         self.companion = None  # the scripted companion computer (msp_rc events), made on first use
+        self._msp = None  # the MSP server acc_calibration events talk to, made on first use
         self.log = None  # flight log (logs/writer.py): the logger's ring written out to log_path
         if log_path:
             from hoverfly.logs.writer import attach
@@ -553,6 +556,22 @@ class SimRun:
             text = str(detail)
         self.events_out.append({"t_s": round(t_s, 4), "event": name, "detail": text})
 
+    def _acc_calibration(self, t):
+        """The pilot's accelerometer calibration, as the configurator sends it: an MSP_ACC_CALIBRATION to the
+        flight's own MSP server (a bridged firmware's attitude is the one its output frames report), so the
+        trims are what the estimate reads on the ground, never the simulator's true bias."""
+        if self._msp is None:
+            self._msp = MspServer(self.flight)
+        srv = self._msp
+        req = msp.encode_request(msp.MSP_ACC_CALIBRATION, b"")
+        replies = msp.MspParser(max_payload=16, queue_depth=1)
+        srv.feed(req, len(req), replies.feed)
+        ok = replies.pop() and replies.direction == msp.DIR_REPLY
+        p = self.params
+        detail = ("roll %.2f deg, pitch %.2f deg" % (p.get("acc_trim_roll"), p.get("acc_trim_pitch")) if ok
+                  else "refused: %s" % srv.last_error)
+        self.events_out.append({"t_s": round(t, 4), "event": "acc_calibration", "detail": detail})
+
     def _step_signal(self, meter, v, roll, pitch):
         i = ("roll", "pitch", "yaw").index(meter.axis)
         if meter.unit == "dps":
@@ -723,6 +742,8 @@ class SimRun:
                 self.companion = Companion(self.flight, self.params, p.hover_guess,
                                            board=self.board if self.firmware == "cpython" else None)
             self.companion.set(ev["msp_rc"], t)
+        if ev.get("acc_calibration"):
+            self._acc_calibration(t)
         if "config_session" in ev:
             self.flight.config_session = ev["config_session"]
         if "channel" in ev:  # an AUX switch (or any channel) set by hand: {ch = 1-based, us = pulse}

@@ -30,7 +30,10 @@ Keys an `[[at]]` entry may hold (several at once):
     configuration sessions, 1 CLI, 2 MSP, 4 maintenance),
     channel ({ch = 5..16, us = 800..2200}: hold that channel at that pulse width from now on,
     e.g. an AUX mode switch; the pilot's own arm/mode switches are overridden too),
-    throw (a plane's hand launch: true, or {forward_m_s2, up_m_s2, duration_s} of the arm's push).
+    throw (a plane's hand launch: true, or {forward_m_s2, up_m_s2, duration_s} of the arm's push),
+    acc_calibration (true: the pilot calibrates the accelerometer on the ground as in the configurator,
+    an MSP_ACC_CALIBRATION to the flight's MSP server, which stores the attitude it reads as
+    acc_trim_roll / acc_trim_pitch; refused while armed, the refusal in the events).
 A plane's scenario may start in flight: [start] altitude_m, airspeed_m_s, heading_deg.
 
 Every key is checked before anything flies: numbers finite and in range, the right type, required
@@ -51,7 +54,7 @@ _EVENT_KEYS = {
     "t", "arm", "mode", "throttle", "throttle_us", "roll", "pitch", "yaw", "roll_us", "pitch_us", "yaw_us",
     "hold_altitude_m", "fly_to", "land", "step", "kick", "gust", "wind", "flip", "rx_lost", "imu_freeze",
     "set", "note", "stall_ms", "torque",
-    "imu_stuck", "autopilot_switch", "msp_rc", "config_session", "channel", "throw",
+    "imu_stuck", "autopilot_switch", "msp_rc", "config_session", "channel", "throw", "acc_calibration",
 }
 _MSP_RC_KEYS = ("roll", "pitch", "yaw", "throttle", "arm", "rate_hz", "channels", "hold_altitude_m")
 _TOP_KEYS = ("name", "description", "duration_s", "mode", "at", "params", "judge_from_s", "airframe", "start")
@@ -102,7 +105,7 @@ def _check_event(where, ev, duration_s):
     if "t" not in ev:
         raise UserError("%s: every [[at]] needs a time t" % where)
     _num(where, "t", ev["t"], 0.0, duration_s)
-    for key in ("arm", "land", "rx_lost", "imu_freeze", "imu_stuck", "autopilot_switch"):
+    for key in ("arm", "land", "rx_lost", "imu_freeze", "imu_stuck", "autopilot_switch", "acc_calibration"):
         if key in ev and not isinstance(ev[key], bool):
             raise UserError("%s: %s must be true or false" % (where, key))
     if "mode" in ev and ev["mode"] not in _MODES:
