@@ -66,6 +66,11 @@ class Board:
     def read_battery(self, signals):
         """Set signals.battery_v and signals.current_a (0 when not measured)."""
 
+    def read_airspeed(self):
+        """A pitot's indicated airspeed in m/s (a plane's differential-pressure sensor), or None when the
+        board has no airspeed sensor (a quad, a plane flying without one)."""
+        return None
+
     def set_led(self, on):
         """Status LED."""
 

@@ -60,3 +60,6 @@ class Signals:
         self.battery_v = 0.0
         self.current_a = 0.0
         self.mah_drawn = 0.0
+        # pitot (a plane's): indicated airspeed, 0.0 with airspeed_valid False when the board has none
+        self.airspeed_m_s = 0.0
+        self.airspeed_valid = False

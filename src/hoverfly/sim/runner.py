@@ -182,6 +182,7 @@ class SimRun:
             for i, servo in plane_servos(self.airframe).items():  # each servo's own end points
                 self.board.servos[i] = servo
             self.vehicle.servo_pos = self.board.servo_cmd
+            self.board.fit_pitot(self.vehicle, seed)
         self.imu = ImuModel(self.airframe["imu"], seed, self.loop_hz, self.vehicle.hover_omega(), self.vehicle.n)
         # The simulated ESCs speak `esc` and the flight controller's output codec is set up to match;
         # they read the real frames or pulse widths and answer bidirectional DShot from the rotors.

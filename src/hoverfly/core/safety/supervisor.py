@@ -234,8 +234,16 @@ class Supervisor:
 
     # ---------------------------------------------------------------- battery
     def task_battery(self, now_us):
-        """50 Hz: the board's battery reading into the signals (task() judges it)."""
-        self.board.read_battery(self.signals)
+        """50 Hz: the board's battery reading into the signals (task() judges it), and a plane's pitot: the
+        airspeed is for the links and the log, so it is read here at its sensor's rate, never in the pass."""
+        s = self.signals
+        self.board.read_battery(s)
+        v = self.board.read_airspeed()
+        if v is None:
+            s.airspeed_valid = False
+        else:
+            s.airspeed_m_s = v
+            s.airspeed_valid = True
 
     def _battery_ok(self, battery_v):
         """False below vbat_min_cell per cell; True when off or not measured."""
