@@ -223,6 +223,46 @@ def plot_servos(log, path):
     return _save(fig, path)
 
 
+def plot_airspeed(log, path):
+    """A plane's pitot airspeed (PX4's airspeed topic) over the pitch angle and throttle it follows: a pilot reads
+    the energy trade (nose down, speed up) and a stall's approach from these two panels; None without the topic."""
+    a = log.topic("airspeed")
+    if a is None or len(a["t_s"]) < 2 or "indicated_airspeed_m_s" not in a:
+        return None
+    ias = a["indicated_airspeed_m_s"]
+    fig, axs = plt.subplots(2, 1, figsize=(11, 5.5), sharex=True, gridspec_kw={"height_ratios": (3, 2)})
+    ax = axs[0]
+    ax.plot(a["t_s"], ias, lw=0.9, color="tab:blue", label="indicated airspeed")
+    tas = a.get("true_airspeed_m_s")
+    if tas is not None and np.any(np.abs(tas - ias) > 0.05):
+        ax.plot(a["t_s"], tas, lw=0.7, color="tab:cyan", label="true airspeed")
+    mean = float(np.mean(ias))
+    ax.axhline(mean, lw=0.8, ls=":", color="k", label="mean %.1f m/s (min %.1f, max %.1f)"
+               % (mean, float(np.min(ias)), float(np.max(ias))))
+    ax.set_ylabel("airspeed (m/s)")
+    ax.set_ylim(bottom=0.0)
+    ax.grid(alpha=0.3)
+    ax.legend(loc="upper left", fontsize=7, ncol=3)
+    ax = axs[1]
+    q = log.vector("vehicle_attitude", "q", 4)
+    if q is not None and len(q) >= 2:
+        ax.plot(log.topic("vehicle_attitude")["t_s"], euler_deg(q)[:, 1], lw=0.7, color="tab:green", label="pitch")
+    ax.set_ylabel("pitch (deg)")
+    ax.grid(alpha=0.3)
+    ax.legend(loc="upper left", fontsize=7)
+    sp = log.topic("vehicle_rates_setpoint")
+    if sp is not None and "thrust_body[2]" in sp:
+        tw = ax.twinx()
+        tw.plot(sp["t_s"], -sp["thrust_body[2]"], lw=0.7, color="k", ls="--", label="throttle")
+        tw.set_ylim(-0.05, 1.05)
+        tw.set_ylabel("throttle 0..1", fontsize=7)
+        tw.legend(loc="upper right", fontsize=7)
+    _mark(log, axs)
+    axs[0].set_title("Airspeed (pitot) against pitch and throttle", loc="left")
+    axs[-1].set_xlabel("time (s)")
+    return _save(fig, path)
+
+
 def _robust_lim(arrays, q=99.5):
     """y limits holding all but the rarest spikes of these arrays (q-th percentile of |x|, 20 % margin)."""
     vals = np.concatenate([np.abs(a[np.isfinite(a)]) for a in arrays if a is not None and len(a)] or [np.zeros(1)])
@@ -406,6 +446,7 @@ PLOTS = (
     ("rates", plot_rates, "Rates against setpoints"),
     ("motors", plot_motors, "Motors and throttle"),
     ("servos", plot_servos, "Servos against the stabilised commands"),
+    ("airspeed", plot_airspeed, "Airspeed against pitch and throttle"),
     ("pid", plot_pid, "Rate PID terms"),
     ("gyro_spectrum", plot_gyro_spectrum, "Gyro spectrum"),
     ("spectrogram", plot_spectrogram, "Gyro spectrum against throttle"),

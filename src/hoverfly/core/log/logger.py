@@ -14,6 +14,7 @@ Topics at the logging rate, one frame per run: vehicle_attitude, vehicle_angular
 0 = no new sample that pass) and hoverfly_pid (P, I, D, F and sum per axis, the mode). input_rc is
 written for every new receiver frame; actuator_servos (PX4's: a plane's or a tricopter's servo
 widths as control -1..1 = 1000..2000 µs) at most every SERVO_LOG_US, looked at once a batch;
+airspeed (PX4's: a plane's pitot, indicated and true m/s) at most every AIRSPEED_LOG_US while the board has one;
 battery_status, vehicle_status, hoverfly_loop and hoverfly_link about ten times a second. Events
 (arming, failsafe, modes) become log strings, parameter changes become `P` messages after that
 run's samples, and a sync marker goes out about once a second.
@@ -182,6 +183,14 @@ ACTUATOR_SERVOS = (  # PX4's actuator_servos: control[i] = (servo_us[i] - 1500) 
     ("float[8]", "control"),
 )
 SERVO_LOG_US = 20000  # actuator_servos every 20 ms at most: the 50 Hz frame of an analog servo
+AIRSPEED = (  # PX4's airspeed; hoverfly has no static pressure or air temperature, so true = indicated
+    ("uint64_t", "timestamp"),
+    ("uint64_t", "timestamp_sample"),
+    ("float", "indicated_airspeed_m_s"),
+    ("float", "true_airspeed_m_s"),
+    ("float", "confidence"),
+)
+AIRSPEED_LOG_US = 50000  # airspeed every 50 ms at most: enough for a pilot's trace of a 50 Hz pitot
 HOVERFLY_NOTCH = (  # with the slow topics, for a craft with ESC telemetry or a dynamic notch (`hoverfly log report`)
     ("uint64_t", "timestamp"),
     ("float[8]", "motor_hz"),  # each motor's rotation frequency from its eRPM, 0 without a valid reply
@@ -213,6 +222,7 @@ FORMATS = (
     ("hoverfly_link", HOVERFLY_LINK),
     ("actuator_servos", ACTUATOR_SERVOS),
     ("hoverfly_notch", HOVERFLY_NOTCH),
+    ("airspeed", AIRSPEED),
 )
 FAST_TOPICS = ("vehicle_attitude", "vehicle_angular_velocity", "actuator_outputs", "sensor_combined",
                "vehicle_rates_setpoint", "hoverfly_pid")
@@ -358,6 +368,7 @@ class Logger:
         self._batch_n = self._batch  # frames a batch at this logging rate
         self._slow_every = 5  # batches between slow topics
         self._servo_t = -SERVO_LOG_US  # log time of the last actuator_servos
+        self._airspeed_t = -AIRSPEED_LOG_US  # log time of the last airspeed
         self._slow_left = 0
         self._ev_seen = 0
         self._rc_seen = 0
@@ -508,6 +519,7 @@ class Logger:
         self._rc_seen = 0
         self._slow_left = self._slow_every
         self._servo_t = t0 - SERVO_LOG_US
+        self._airspeed_t = t0 - AIRSPEED_LOG_US
         self._dropping = False
         # The slow topics go out as one run of their four D messages, packed in one go (_log_slow).
         fmt = "<"
@@ -775,6 +787,8 @@ class Logger:
         self._check(now_us, t)
         if t - self._servo_t >= SERVO_LOG_US:
             self._log_servos(t)
+        if self.flight.signals.airspeed_valid and t - self._airspeed_t >= AIRSPEED_LOG_US:
+            self._log_airspeed(t)
         left = self._slow_left - 1
         if left > 0:
             self._slow_left = left
@@ -985,6 +999,12 @@ class Logger:
         for i in range(8):
             values.append((us[i] - 1500) * 0.002 if i < n else 0.0)
         self.writer.write_data(self._ids["actuator_servos"], t, values)
+
+    def _log_airspeed(self, t):
+        """airspeed for a plane with a pitot (the board's, read in the 50 Hz task): the latest reading."""
+        self._airspeed_t = t
+        v = self.flight.signals.airspeed_m_s
+        self.writer.write_data(self._ids["airspeed"], t, [t, v, v, 1.0])
 
     def _log_slow(self, t):
         """The slow topics (SLOW_TOPICS, about ten times a second): one pack of their four messages
