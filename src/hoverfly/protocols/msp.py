@@ -66,6 +66,7 @@ MSP_SET_SERVO_CONFIGURATION = const(212)
 MSP_SET_MOTOR = const(214)
 MSP_EEPROM_WRITE = const(250)
 MSP_V2_FRAME = const(255)  # v1 cmd 255: a v2 frame inside
+MSP2_INAV_AIR_SPEED = const(0x2009)
 MSP2_INAV_SERVO_MIXER = const(0x2020)
 MSP2_INAV_SET_SERVO_MIXER = const(0x2021)
 MSP2_SEND_DSHOT_COMMAND = const(0x3003)
@@ -1088,6 +1089,20 @@ SERVO_RULE_BYTES = const(6)
 def pack_servo(widths_us):
     """MSP_SERVO: u16 µs per servo."""
     return _pack_u16s(widths_us)
+
+
+def pack_air_speed(airspeed_cm_s):
+    """MSP2_INAV_AIR_SPEED: u32 airspeed in cm/s, INAV's fc_msp.c (getAirspeedEstimate(); 0 without a pitot)."""
+    return pack("<I", _u32(airspeed_cm_s))
+
+
+def unpack_air_speed(payload, length=-1):
+    """The cm/s of an MSP2_INAV_AIR_SPEED reply, or None when it is shorter than its 4 bytes."""
+    if length < 0:
+        length = len(payload)
+    if length < 4:
+        return None
+    return unpack_from("<I", payload, 0)[0]
 
 
 def pack_servo_configurations(servos):

@@ -378,8 +378,12 @@ class CliServer:
                       sch.overruns))
         cal = f.calibration.calibrated
         imu_ok = f.supervisor.imu_ok
-        out.append("Sensors: gyro %s, calibration %s; estimator %s"
+        sensors = ("Sensors: gyro %s, calibration %s; estimator %s"
                    % ("ok" if imu_ok else "FAULT", "done" if cal else "running", f.params.get("estimator")))
+        s = f.signals
+        if s.airspeed_valid:  # a plane's pitot
+            sensors += "; airspeed %.1f m/s" % s.airspeed_m_s
+        out.append(sensors)
         rx = getattr(f, "receiver", None)
         if rx is not None:
             out.append("Link: %s, %s frames, %s errors, %s Hz, LQ %s %%, RSSI %s dBm"

@@ -12,7 +12,8 @@ SET_MOTOR, ACC_CALIBRATION, EEPROM_WRITE and REBOOT are refused while armed; SET
 flight.motor_test.request with props_off = this session's SET_ARMING_DISABLED(1) (the
 configurator's "I understand the risks" switch), which also holds config_session bit 2.
 SET_MODE_RANGE (refused while armed) writes a box's range parameters through params.update;
-SERVO, SERVO_CONFIGURATIONS and MSP2_INAV_SERVO_MIXER show the servo mixer in INAV's layouts, and
+SERVO, SERVO_CONFIGURATIONS and MSP2_INAV_SERVO_MIXER show the servo mixer in INAV's layouts, MSP2_INAV_AIR_SPEED
+a plane's pitot airspeed (cm/s, 0 without one), and
 SET_SERVO_CONFIGURATION / MSP2_INAV_SET_SERVO_MIXER (refused while armed) write it through the same
 checks as the CLI's `servo` and `smix` (core/stages/servos.py);
 MSP2_HOVERFLY_AUTOPILOT (0x3F00) reports seed 004's autopilot privilege state (docs/msp.md).
@@ -208,6 +209,9 @@ class MspServer(ParsedRequests):
             return msp.pack_servo(s.servo_us)
         if cmd == msp.MSP_SERVO_CONFIGURATIONS:
             return self._servo_configurations()
+        if cmd == msp.MSP2_INAV_AIR_SPEED:
+            # As INAV: 0 when there is no pitot, so a configurator or OSD shows no airspeed rather than an error.
+            return msp.pack_air_speed(s.airspeed_m_s * 100.0 + 0.5 if s.airspeed_valid else 0)
         if cmd == msp.MSP2_INAV_SERVO_MIXER:
             return self._servo_mixer()
         if cmd == msp.MSP_SET_SERVO_CONFIGURATION or cmd == msp.MSP2_INAV_SET_SERVO_MIXER:
