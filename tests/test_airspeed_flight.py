@@ -72,3 +72,28 @@ def test_a_quad_has_no_pitot_so_its_log_has_no_airspeed_and_no_plot(tmp_path):
     out = write_report(log, str(tmp_path / "report"))
     assert not any(p.endswith("airspeed.png") for p in out["plots"])
     assert "airspeed" not in "\n".join(CliServer(run.flight).cmd_status())
+
+
+def _crsf_frames(data, frame_type):
+    """Payloads of the CRSF frames of `frame_type` in the bytes the flight controller sent its receiver."""
+    out = []
+    i = 0
+    while i + 2 < len(data):
+        n = data[i + 1]
+        if data[i] == 0xC8 and 2 <= n <= 62 and i + 2 + n <= len(data):
+            if data[i + 2] == frame_type:
+                out.append(bytes(data[i + 3:i + 1 + n]))
+            i += 2 + n
+        else:
+            i += 1
+    return out
+
+
+def test_crsf_telemetry_sends_the_planes_airspeed_in_tenths_of_km_h(box_flight):
+    run, _, _, _ = box_flight
+    frames = _crsf_frames(run.board.telemetry_out, 0x0A)
+    assert len(frames) >= 20  # the last 64 KiB of telemetry: a few seconds of the cruise
+    last_m_s = [int.from_bytes(p[:2], "big") / 36.0 for p in frames[-20:]]
+    # the box's last leg cruises at 23-25 m/s (the log's plot); the pitot's noise is 0.3 m/s
+    assert all(20.0 < v < 28.0 for v in last_m_s)
+    assert abs(last_m_s[-1] - run.vehicle.airspeed_m_s) < 2.0

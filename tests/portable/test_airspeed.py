@@ -108,3 +108,47 @@ def test_air_speed_codec_clamps_and_never_raises():
     assert msp.unpack_air_speed(b"\x01\x02\x03") is None
     assert msp.unpack_air_speed(b"") is None
     assert msp.unpack_air_speed(pack("<I", 2500) + b"\xff") == 2500
+
+
+def _crc8_dvb_s2(data):
+    """CRC-8/DVB-S2 (poly 0xD5) bit by bit: an implementation apart from the codec's table."""
+    crc = 0
+    for b in data:
+        crc ^= b
+        for _ in range(8):
+            crc = ((crc << 1) ^ 0xD5) & 0xFF if crc & 0x80 else (crc << 1) & 0xFF
+    return crc
+
+
+def test_crsf_airspeed_frame_is_a_big_endian_u16_of_tenths_of_km_h():
+    from hoverfly.protocols import crsf
+
+    out = bytearray(64)
+    n = crsf.encode_airspeed(out, 13.9)  # 50.04 km/h -> 500
+    assert n == 6
+    assert bytes(out[:5]) == bytes([0xC8, 0x04, 0x0A, 0x01, 0xF4])
+    assert out[5] == _crc8_dvb_s2(out[2:5])
+    crsf.encode_airspeed(out, -3.0)
+    assert out[3] == 0 and out[4] == 0
+    crsf.encode_airspeed(out, 1e9)
+    assert out[3] == 0xFF and out[4] == 0xFF
+
+
+def test_crsf_telemetry_carries_the_airspeed_in_its_rotation_only_while_the_pitot_reads():
+    from hoverfly.protocols import crsf
+
+    t = crsf.CrsfTelemetryScheduler(1000)
+    out = bytearray(64)
+    t.set_battery(12.0, 1.0, 10, 90)
+    t.set_attitude(0.0, 0.0, 0.0)
+    t.set_airspeed(15.0)
+    kinds = []
+    for k in range(6):
+        n = t.poll(10000 * (k + 1), 1, out)
+        assert n > 0
+        kinds.append(out[2])
+    assert kinds == [0x08, 0x1E, 0x0A, 0x08, 0x1E, 0x0A]
+    t.clear(crsf.KIND_AIRSPEED)
+    for k in range(4):
+        t.poll(100000 + 10000 * k, 1, out)
+        assert out[2] != 0x0A

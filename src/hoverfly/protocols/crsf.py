@@ -4,7 +4,7 @@ Takes the byte stream a CRSF receiver sends the flight controller (420000 baud 8
 inverted; reference/protocols.md §1) in any chunking through `CrsfDecoder.feed`. Gives
 16 channels (`channels_raw` wire ticks, `channels_us` microseconds), link statistics from
 0x14 frames, and counters. It also encodes the frames the FC sends back on the same UART
-(battery 0x08, attitude 0x1E, flight mode 0x21, GPS 0x02, all with sync 0xC8) and, for the
+(battery 0x08, attitude 0x1E, flight mode 0x21, GPS 0x02, airspeed 0x0A, all with sync 0xC8) and, for the
 simulator and tests, the receiver's own frames (RC 0x16, link statistics 0x14).
 `CrsfTelemetryScheduler` picks which telemetry frame to send, one right after an RC frame.
 It sits in the receiver task (decode) and the telemetry task (encode).
@@ -38,6 +38,7 @@ from hoverfly.protocols.rxcodec import (
 SYNC_FC = const(0xC8)
 TYPE_GPS = const(0x02)
 TYPE_BATTERY = const(0x08)
+TYPE_AIRSPEED = const(0x0A)
 TYPE_HEARTBEAT = const(0x0B)
 TYPE_LINK_STATISTICS = const(0x14)
 TYPE_RC_CHANNELS = const(0x16)
@@ -457,14 +458,22 @@ def encode_gps(out, lat_deg_e7, lon_deg_e7, ground_speed_m_s, course_rad, altitu
     return _finish(out, 19)
 
 
+def encode_airspeed(out, airspeed_m_s):
+    """AIRSPEED 0x0A into out (>= 6 bytes); returns 6. u16 in 0.1 km/h (TBS CRSF spec), as the GPS speed."""
+    out[2] = TYPE_AIRSPEED
+    _put_u16(out, 3, _clamp(_round(airspeed_m_s * 36), 0, 0xFFFF))
+    return _finish(out, 6)
+
+
 # -- telemetry scheduling --------------------------------------------------------------
 
 KIND_BATTERY = const(0)
 KIND_ATTITUDE = const(1)
 KIND_FLIGHT_MODE = const(2)
 KIND_GPS = const(3)
-_KINDS = const(4)
-KIND_NAMES = ("battery", "attitude", "flight_mode", "gps")
+KIND_AIRSPEED = const(4)
+_KINDS = const(5)
+KIND_NAMES = ("battery", "attitude", "flight_mode", "gps", "airspeed")
 
 
 class CrsfTelemetryScheduler:
@@ -489,6 +498,7 @@ class CrsfTelemetryScheduler:
         self._attitude = [0.0, 0.0, 0.0]
         self._mode = b""
         self._gps = [0, 0, 0.0, 0.0, 0.0, 0]
+        self._airspeed = [0.0]
 
     def set_battery(self, voltage_v, current_a, used_mah, remaining_pct):
         b = self._battery
@@ -518,6 +528,10 @@ class CrsfTelemetryScheduler:
         g[4] = altitude_m
         g[5] = satellites
         self._has[KIND_GPS] = 1
+
+    def set_airspeed(self, airspeed_m_s):
+        self._airspeed[0] = airspeed_m_s
+        self._has[KIND_AIRSPEED] = 1
 
     def clear(self, kind=-1):
         """Stop sending one kind (KIND_*), or all with -1."""
@@ -561,9 +575,11 @@ class CrsfTelemetryScheduler:
             n = encode_attitude(out, a[0], a[1], a[2])
         elif k == KIND_FLIGHT_MODE:
             n = encode_flight_mode(out, self._mode)
-        else:
+        elif k == KIND_GPS:
             g = self._gps
             n = encode_gps(out, g[0], g[1], g[2], g[3], g[4], g[5])
+        else:
+            n = encode_airspeed(out, self._airspeed[0])
         self._last_us = now_us
         self._sent_any = True
         self.sent += 1

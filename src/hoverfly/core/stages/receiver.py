@@ -44,6 +44,7 @@ TELEMETRY_INTERVAL_US = const(25000)  # 40 frames/s: ~10 Hz per kind with three 
 _KIND_BATTERY = const(0)
 _KIND_ATTITUDE = const(1)
 _KIND_FLIGHT_MODE = const(2)
+_KIND_AIRSPEED = const(4)  # crsf.KIND_AIRSPEED
 
 # CRSF flight-mode strings as Betaflight master sends them (reference/protocols.md §1.5):
 # armed plain, disarmed and ready to arm '*', disarmed with arming blocked '!'.
@@ -350,6 +351,11 @@ class Receiver:
             t.set_attitude(a.pitch_rad, a.roll_rad, a.yaw_rad)
         if kind < 0 or kind == _KIND_FLIGHT_MODE:
             t.set_flight_mode(flight_mode_text(mode, airmode, failsafe, armed, arming_flags))
+        # A plane's pitot joins the rotation while it reads (set every time: until it has data it is never upcoming).
+        if signals.airspeed_valid:
+            t.set_airspeed(signals.airspeed_m_s)
+        else:
+            t.clear(_KIND_AIRSPEED)
         view = self._link
         buf = self._tlm_buf if view is None else view.tx_buffer()
         if buf is None:  # core 1 has not written the last frame yet: this one waits for the next slot
