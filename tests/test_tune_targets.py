@@ -12,6 +12,7 @@ The F450 is held to its own figures (its airframe file says them, before and aft
 import pytest
 
 from hoverfly.sim.runner import fly
+from hoverfly.sim.scenario import HERE, parse_scenario
 
 SEEDS = (1, 2, 3)
 
@@ -21,7 +22,8 @@ TARGETS = {
     # accelerometer's bias, 0.03 m/s² sigma, is read as tilt: seed 1's alone leans it 0.45 deg). The tune leaves
     # both where they were (before -> after, seeds 1-3: steady error 0.54/1.10/0.53 -> 0.49/1.08/0.59 deg,
     # hover 0.67/0.84/0.22 -> 0.67/0.79/0.21 deg): held here no worse than before, and the issue's own
-    # figures in test_the_estimator_bound_targets_are_not_met_yet below.
+    # figures, after the pilot's accelerometer calibration, in
+    # test_a_calibrated_5inch_meets_the_hover_tilt_and_steady_error_targets below.
     "5inch": {"rate_rise_ms": 21.0, "rate_overshoot_pct": 5.0, "rate_settle_ms": 50.0, "stop_overshoot_pct": 5.0,
               "angle_t90_ms": 120.0, "angle_overshoot_pct": 5.0, "angle_steady_deg": 1.15,
               "torque_back_ms": 150.0, "hover_tilt_rms_deg": 0.85},
@@ -71,9 +73,26 @@ def test_the_default_tune_meets_the_issue_targets(airframe, seed):
     assert not late, (airframe, seed, late, got)
 
 
-@pytest.mark.xfail(strict=True, reason="the attitude estimate's error (accelerometer bias, its pull in a bank), "
-                                       "not the controller's: seed 2's hover 0.79 deg, its bank 1.08 deg off")
-def test_the_estimator_bound_targets_are_not_met_yet():
+def _calibrated(name):
+    """A built-in scenario with the pilot's accelerometer calibration on the ground before arming (a Betaflight
+    pilot's routine: the configurator's MSP_ACC_CALIBRATION, sim/scenario.py's acc_calibration)."""
+    text = (HERE / (name + ".toml")).read_text()
+    return parse_scenario(text + "\n[[at]]\nt = 1.5\nacc_calibration = true\n", name)
+
+
+# The calibration stores the estimate's lean on level ground as acc_trim_roll/pitch (seed 2: -0.92 / 0.38 deg),
+# but the core applies those trims nowhere (neither the estimator nor the angle loop reads them), so the flights
+# are as uncalibrated ones: seeds 1-3 hover 0.62/0.79/0.21 deg, bank steady error 0.45/1.08/0.58 deg. With
+# the trims subtracted from the attitude in the float angle loop (a trial outside the tree): hover
+# 0.06/0.16/0.11, steady error 0.38/0.25/0.27 deg.
+@pytest.mark.xfail(strict=True, reason="the accelerometer trims a calibration stores are applied nowhere in "
+                                       "the core: seed 2 calibrated still hovers at 0.79 deg, its bank 1.08 off")
+def test_a_calibrated_5inch_meets_the_hover_tilt_and_steady_error_targets():
     for seed in SEEDS:
-        got = _figures("5inch", seed)
-        assert got["hover_tilt_rms_deg"] <= 0.4 and got["angle_steady_deg"] <= 0.5, (seed, got)
+        h = fly(_calibrated("hover"), "5inch", seed)
+        assert not h["crashed"] and h["armed"]
+        assert [e for e in h["events"] if e["event"] == "acc_calibration"], h["events"]
+        a = fly(_calibrated("angle-steps"), "5inch", seed)
+        assert not a["crashed"]
+        steady = max(abs(s["steady_error"]) for s in a["steps"] if s["to"] == 30)
+        assert h["tilt_rms_deg"] <= 0.4 and steady <= 0.5, (seed, h["tilt_rms_deg"], steady)
