@@ -219,7 +219,7 @@ class SimBoard(SampledBoard):
         plane = self.pitot_plane
         if plane is None:
             return None  # a quad: no pitot
-        # JSBSim's true airspeed: at the few hundred metres the scenarios fly, indicated is within 3 % of it.
+        # JSBSim's true airspeed: up to the 300 m the scenarios fly at, indicated is within 2 % of it.
         v = plane.airspeed_m_s + self._pitot_rng.gauss(0.0, PITOT_NOISE_M_S)
         return v if v > 0.0 else 0.0
 
