@@ -93,6 +93,8 @@ DM_G_M = const(1)  # gyro acceleration (Q7) to the boost (Q15)
 DM_G_S = const(2)
 DM_S_M = const(3)  # setpoint acceleration (Q7) to the boost (Q15)
 DM_S_S = const(4)
+TRIM_ROLL = const(126)  # the accelerometer trims (Controller.trim_*_rad), Q24 rad
+TRIM_PITCH = const(127)
 CO_SIZE = const(128)
 
 # ---- state layout (st, array "i")
@@ -238,8 +240,9 @@ def rate_pass(co, st, io, flags, dt_us):
     roll_sp = _dec(fin[IN_ROLL_SP], 16777216.0, _LIM24)
     pitch_sp = _dec(fin[IN_PITCH_SP], 16777216.0, _LIM24)
     if mode != MODE_ACRO:
-        lr = _level_rate(co, st, S_LAST_ROLL, roll_sp, _dec(fin[IN_ROLL], 16777216.0, _LIM24), inv_dt)
-        lp = _level_rate(co, st, S_LAST_PITCH, pitch_sp, _dec(fin[IN_PITCH], 16777216.0, _LIM24), inv_dt)
+        lr = _level_rate(co, st, S_LAST_ROLL, roll_sp, _dec(fin[IN_ROLL], 16777216.0, _LIM24) - co[TRIM_ROLL], inv_dt)
+        lp = _level_rate(co, st, S_LAST_PITCH, pitch_sp, _dec(fin[IN_PITCH], 16777216.0, _LIM24) - co[TRIM_PITCH],
+                         inv_dt)
         if mode == MODE_ANGLE:
             sp0 = lr
             sp1 = lp
@@ -514,6 +517,8 @@ class FixedRate:
         co[ANG_GAIN_M], co[ANG_GAIN_S] = coef(c.angle_gain)
         co[ANG_FF_M], co[ANG_FF_S] = coef(c.angle_ff)
         co[ANG_LIM] = _q(c.angle_rate_limit, _ONE16)
+        co[TRIM_ROLL] = _q(c.trim_roll_rad, 16777216.0)
+        co[TRIM_PITCH] = _q(c.trim_pitch_rad, 16777216.0)
         co[HORIZON] = _q(c.horizon_strength, _ONE15)
         bp = c.tpa_breakpoint
         co[TPA_ON] = 1 if bp < 1.0 else 0

@@ -37,6 +37,10 @@ class Controller:
         self.yaw = AxisPid(self.terms, 2)
         self.angle_gain = 5.0
         self.angle_ff = 0.5
+        # The accelerometer trims (MSP_ACC_CALIBRATION on level ground stores the estimate's lean there):
+        # angle and horizon level to the trimmed attitude, as Betaflight's pidLevel subtracts its angle trim.
+        self.trim_roll_rad = 0.0
+        self.trim_pitch_rad = 0.0
         self.angle_rate_limit = 500.0 * _DEG
         self.horizon_strength = 0.5
         self.tpa_rate = 0.65
@@ -58,6 +62,8 @@ class Controller:
         self.yaw.configure(params, "yaw", loop_hz, "pidsum_limit_yaw")
         self.angle_gain = params.get("angle_p_gain") * 0.1
         self.angle_ff = params.get("angle_ff") * 0.01
+        self.trim_roll_rad = params.get("acc_trim_roll") * _DEG
+        self.trim_pitch_rad = params.get("acc_trim_pitch") * _DEG
         self.angle_rate_limit = params.get("angle_rate_limit") * _DEG
         self.horizon_strength = params.get("horizon_level") * 0.01
         self.tpa_rate = params.get("tpa_rate") * 0.01
@@ -136,8 +142,9 @@ class Controller:
                 self._dt_s = dt_s
                 self._inv_dt = 1.0 / dt_s
             inv_dt = self._inv_dt
-            level_roll = self._level_rate(roll_sp, attitude.roll_rad, self._last_roll_sp, inv_dt)
-            level_pitch = self._level_rate(pitch_sp, attitude.pitch_rad, self._last_pitch_sp, inv_dt)
+            level_roll = self._level_rate(roll_sp, attitude.roll_rad - self.trim_roll_rad, self._last_roll_sp, inv_dt)
+            level_pitch = self._level_rate(pitch_sp, attitude.pitch_rad - self.trim_pitch_rad, self._last_pitch_sp,
+                                           inv_dt)
             if mode == MODE_ANGLE:
                 rate[0] = level_roll
                 rate[1] = level_pitch
