@@ -40,7 +40,8 @@ def test_replay_with_the_logged_parameters_reproduces_the_controller_outputs(log
 
 def test_doubling_roll_p_doubles_the_roll_p_term_and_leaves_pitch_alone(logged):
     _, log = logged
-    r = replay(log, [("p_roll", 90)])
+    p = log.params["p_roll"]
+    r = replay(log, [("p_roll", 2 * p)])
     ratio = r.rms("new")["p_roll"] / r.rms("old")["p_roll"]
     assert ratio == pytest.approx(2.0, rel=1e-3)
     assert r.max_abs_diff()["p_pitch"] == 0.0
@@ -49,7 +50,8 @@ def test_doubling_roll_p_doubles_the_roll_p_term_and_leaves_pitch_alone(logged):
 
 def test_more_roll_d_means_a_larger_d_term_and_more_motor_activity(logged):
     _, log = logged
-    r = replay(log, [("d_roll", 80)])
+    # D-min on: D rests at d_min_roll and rises towards d_roll on fast moves, so both are doubled
+    r = replay(log, [("d_roll", 2 * log.params["d_roll"]), ("d_min_roll", 2 * log.params["d_min_roll"])])
     assert r.rms("new")["d_roll"] > 1.9 * r.rms("old")["d_roll"]
 
     def activity(d):
