@@ -145,7 +145,7 @@ def test_the_fly_summary_says_what_was_flown_with_units_and_events_in_words(caps
     assert "rate-steps on 5inch (seed 7), receiver crsf, ESCs dshot600" in out
     assert "-0.00" not in out
     assert "overrun" not in out and "lockstep at 1000 Hz on the simulated clock" in out
-    assert "steady error 2.79 deg/s" in out  # every figure with its unit
+    assert "steady error 0.54 deg/s" in out  # every figure with its unit
     assert "2.00 s armed (switch)" in out and "5.00 s acro mode" in out and "0@" not in out
     assert "battery" in out and " V at the end" in out and "mAh drawn" in out
     assert "log written to %s" % log in out
