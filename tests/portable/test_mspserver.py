@@ -6,6 +6,7 @@ from hoverfly.core.config.params import Params
 from hoverfly.core.config.storage import Storage
 from hoverfly.core.links.mspserver import CONFIG_MSP, MspServer
 from hoverfly.core.links.task import ConfigPort
+from hoverfly.core.stages.control import MODE_MANUAL
 from hoverfly.protocols import msp
 
 
@@ -89,6 +90,21 @@ def test_modes_boxes_and_ranges():
     assert msp.unpack_boxids(_ask(s, msp.MSP_BOXIDS)[1])[:3] == [0, 1, 2]
     ranges = msp.unpack_mode_ranges(_ask(s, msp.MSP_MODE_RANGES)[1])
     assert ranges[0] == (0, 0, msp.step_of_us(1700), msp.step_of_us(2100))
+
+
+def test_a_plane_has_inavs_manual_box_and_a_quad_does_not():
+    s, f, _ = _server()
+    assert "MANUAL" not in msp.unpack_boxnames(_ask(s, msp.MSP_BOXNAMES)[1])
+    direction, _ = _ask(s, msp.MSP_SET_MODE_RANGE, msp.pack_set_mode_range(5, 12, 2, 32, 48))
+    assert direction == msp.DIR_ERROR and f.params.get("manual_ch") == 0  # refused on a quad, nothing changed
+    f.params.values["mixer_type"] = "airplane"
+    assert msp.unpack_boxnames(_ask(s, msp.MSP_BOXNAMES)[1])[-1] == "MANUAL"
+    assert msp.unpack_boxids(_ask(s, msp.MSP_BOXIDS)[1])[-1] == 12  # INAV's permanent id
+    assert _ask(s, msp.MSP_SET_MODE_RANGE, msp.pack_set_mode_range(5, 12, 2, 32, 48))[0] == msp.DIR_REPLY
+    assert f.params.get("manual_ch") == 7  # AUX3
+    assert msp.unpack_mode_ranges(_ask(s, msp.MSP_MODE_RANGES)[1])[5] == (12, 2, 32, 48)
+    f.signals.setpoint.mode = MODE_MANUAL
+    assert msp.unpack_status(_ask(s, msp.MSP_STATUS)[1])["mode_flags"] & 32  # MANUAL's bit, its place in BOXIDS
 
 
 def test_unknown_command_gets_an_error_reply():

@@ -22,13 +22,14 @@ MSP2_HOVERFLY_AUTOPILOT (0x3F00) reports seed 004's autopilot privilege state (d
 from struct import pack
 
 from hoverfly import VERSION
-from hoverfly.compat import ticks_diff
+from hoverfly.compat import const, ticks_diff
 from hoverfly.core.command.autopilot import AP_ENABLED, LATCH_HARD
 from hoverfly.core.command.motortest import STOP_LINK
 from hoverfly.core.safety.arming import REASONS
 from hoverfly.core.safety.failsafe import IDLE
 from hoverfly.core.scheduler import PS_CYCLE
-from hoverfly.core.stages.control import MODE_ANGLE, MODE_HORIZON
+from hoverfly.core.stages.control import MODE_ANGLE, MODE_HORIZON, MODE_MANUAL
+from hoverfly.core.stages.mixer import is_plane
 from hoverfly.core.stages.output import MAX_SERVOS as SERVO_LINES
 from hoverfly.core.stages.rc import map_channels
 from hoverfly.core.stages.servos import MAX_RULES, SERVO_ROWS, rule_pairs, rules_of, servo_pairs, servo_rows
@@ -48,8 +49,10 @@ MSP_RX_MAP = 64  # Betaflight msp_protocol.h: u8 x 8, the receiver channel (0-ba
 MSP_SET_RX_MAP = 65
 
 # The modes hoverfly reports (MSP_BOXIDS / BOXNAMES order; STATUS mode_flags bit = index here).
-BOXES = ((0, "ARM"), (1, "ANGLE"), (2, "HORIZON"), (28, "AIR MODE"), (27, "FAILSAFE"))
-_RANGE_PARAMS = ("arm", "angle", "horizon", "airmode", "fs_switch")  # each box's <key>_ch/_min_us/_max_us
+# MANUAL (INAV's permanent id 12) last, and only for a plane, as INAV lists it: a quad's boxes are the others.
+BOXES = ((0, "ARM"), (1, "ANGLE"), (2, "HORIZON"), (28, "AIR MODE"), (27, "FAILSAFE"), (12, "MANUAL"))
+_RANGE_PARAMS = ("arm", "angle", "horizon", "airmode", "fs_switch", "manual")  # each box's <key>_ch/_min_us/_max_us
+_QUAD_BOXES = const(5)
 ARMING_FLAG_COUNT = 31  # hoverfly's reasons run to bit 30 (arming.py)
 
 IDENTITY = {
@@ -239,9 +242,9 @@ class MspServer(ParsedRequests):
             p = f.params
             return msp.pack_pid([(p.get("p_" + a), p.get("i_" + a), p.get("d_" + a)) for a in ("roll", "pitch", "yaw")])
         if cmd == msp.MSP_BOXNAMES:
-            return msp.pack_boxnames([b[1] for b in BOXES])
+            return msp.pack_boxnames([b[1] for b in BOXES[:self._box_count()]])
         if cmd == msp.MSP_BOXIDS:
-            return msp.pack_boxids([b[0] for b in BOXES])
+            return msp.pack_boxids([b[0] for b in BOXES[:self._box_count()]])
         if cmd == msp.MSP_MODE_RANGES:
             return self._mode_ranges()
         if cmd == msp.MSP_UID:
@@ -366,6 +369,8 @@ class MspServer(ParsedRequests):
             modes |= 2
         elif m == MODE_HORIZON:
             modes |= 4
+        elif m == MODE_MANUAL:
+            modes |= 32
         if f.commander.airmode_enabled:  # the AIRMODE box: the switch when one is set, else the parameter
             modes |= 8
         if f.failsafe.state != IDLE:
@@ -393,12 +398,16 @@ class MspServer(ParsedRequests):
         v["rates_type"] = 4  # Betaflight RATES_TYPE_ACTUAL
         return msp.pack_rc_tuning(v)
 
+    def _box_count(self):
+        """How many of BOXES this craft has: MANUAL is a plane's."""
+        return len(BOXES) if is_plane(self.flight.params.get("mixer_type")) else _QUAD_BOXES
+
     def _mode_ranges(self):
         """One fixed slot per box, in BOXES order (slot 0 ARM ...), so what SET_MODE_RANGE wrote reads
         back in the slot it names; a box without an AUX channel (ch < 5) is an unused slot (all zero)."""
         p = self.flight.params
         ranges = []
-        for k in range(len(BOXES)):
+        for k in range(self._box_count()):
             key = _RANGE_PARAMS[k]
             ch = p.get(key + "_ch")
             if ch >= 5:
@@ -435,12 +444,13 @@ class MspServer(ParsedRequests):
         if slot >= msp.MODE_RANGE_SLOTS:
             return self._refuse("SET_MODE_RANGE slot %d: there are %d" % (slot, msp.MODE_RANGE_SLOTS))
         k = -1
-        for i in range(len(BOXES)):
+        n = self._box_count()
+        for i in range(n):
             if BOXES[i][0] == box_id:
                 k = i
         if k < 0:
-            return self._refuse("SET_MODE_RANGE box %d: hoverfly's boxes are %s" % (
-                box_id, ", ".join("%d %s" % b for b in BOXES)))
+            return self._refuse("SET_MODE_RANGE box %d: this craft's boxes are %s" % (
+                box_id, ", ".join("%d %s" % b for b in BOXES[:n])))
         if start > msp.MODE_RANGE_MAX_STEP or end > msp.MODE_RANGE_MAX_STEP:
             return self._refuse("SET_MODE_RANGE steps must be 0..48 (900..2100 us)")
         if logic > 1 or linked != 0:
