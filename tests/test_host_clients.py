@@ -136,10 +136,11 @@ def test_connect_ends_at_end_of_input(sim, capsys, monkeypatch):
 
 # -------------------------------------------------------------------------------- hoverfly params
 def test_params_get_shows_range_and_default_of_one_name(sim, capsys):
-    code, out, _ = run(capsys, "params", "get", "p_yaw", "--port", sim.cli_url)
+    # f_yaw: neither the airframe's tune nor another test here changes it
+    code, out, _ = run(capsys, "params", "get", "f_yaw", "--port", sim.cli_url)
     assert code == 0
-    assert out.splitlines()[:3] == ["p_yaw = %s" % row("p_yaw")[1], "Allowed range: 0 - 250",
-                                    "Default value: %s" % row("p_yaw")[1]]
+    assert out.splitlines()[:3] == ["f_yaw = %s" % row("f_yaw")[1], "Allowed range: 0 - 1000",
+                                    "Default value: %s" % row("f_yaw")[1]]
 
 
 def test_params_set_changes_the_controller(sim, capsys):
@@ -169,7 +170,7 @@ def test_params_dump_and_diff_are_set_lines(sim, capsys):
     assert code == 0 and sum(1 for line in dump.splitlines() if line.startswith("set ")) == len(PARAMS)
     code, diff, _ = run(capsys, "params", "diff", "--port", sim.cli_url)
     assert code == 0 and diff.startswith("# diff all") and "set d_yaw = 7" in diff.splitlines()
-    assert "set p_yaw = " not in diff  # defaults are left out
+    assert "set f_yaw = " not in diff  # defaults are left out
 
 
 def test_restore_preview_shows_the_diff_and_leaves_the_controller_unchanged(sim, capsys, monkeypatch,
