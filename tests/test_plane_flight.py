@@ -16,6 +16,7 @@ import math
 
 import pytest
 
+from hoverfly.cli_fly import summary
 from hoverfly.sim.runner import SimRun, fly
 from test_micropython import MICROPYTHON
 
@@ -40,6 +41,11 @@ def test_a_hand_launched_plane_climbs_and_flies_the_box_in_angle_without_stallin
     assert r["altitude_m"]["final"] > 10.0  # and is still flying after four turns
     assert r["stalls"] == [] and r["spins"] == []
     assert 20.0 < r["max_bank_deg"] < 45.0  # the turns were flown, within the bank limit
+    # and `hoverfly fly` says so in words: the airspeed against the stall, the bank, no stall
+    line = [x for x in summary(r).splitlines() if x.strip().startswith("airspeed")]
+    a = r["airspeed_m_s"]
+    assert line == ["  airspeed %.1f..%.1f m/s (mean %.1f, stall %.1f); max bank %.1f deg; no stall, no spin"
+                    % (a["min"], a["max"], a["mean"], r["stall_speed_m_s"], r["max_bank_deg"])], summary(r)
 
 
 @pytest.mark.parametrize("seed", SEEDS)

@@ -99,6 +99,12 @@ def summary(r):
         % ("CRASHED" if r["crashed"] else "no crash", "armed" if r["armed"] else "disarmed", r["tilt_rms_deg"],
            r["max_tilt_deg"], _m(alt["min"]), _m(alt["max"]), _m(alt["final"]), _m(r["horizontal_drift_m"])),
     ]
+    a = r.get("airspeed_m_s")
+    if a:  # a plane: its airspeed against its stall speed, and what the judging saw
+        lines.append("  airspeed %.1f..%.1f m/s (mean %.1f, stall %.1f); max bank %.1f deg; %s"
+                     % (a["min"], a["max"], a["mean"], r["stall_speed_m_s"], r["max_bank_deg"],
+                        "%d stall(s), %d spin(s)" % (len(r["stalls"]), len(r["spins"]))
+                        if r["stalls"] or r["spins"] else "no stall, no spin"))
     b = r.get("battery")
     if b:
         lines.append("  battery %.2f V at the end, %.0f mAh drawn" % (b["voltage_v"], b["mah_drawn"]))
