@@ -30,7 +30,7 @@ from hoverfly.protocols import bridge as B
 # the free heap drops below this: never inside the flight pass.
 GC_FREE_BYTES = 32768
 # What one STEP may allocate at most, with room: the pass's boxed floats and the frame's values
-# (1.3 KB on average, 3.7 KB at most over a 6 s hover on the unix VM: bench/bridge_alloc.py).
+# (1.3 KB on average, 3.7 KB at most over a 6 s hover on the unix VM: bench/bridge_firmware.py, "alloc_bytes").
 # gc.mem_free() walks the heap's whole allocation table (about 85 us on the VM's 768 KB heap, five
 # times the flight pass), so the free heap is read again only once the steps since the last reading
 # could have used up what stood above GC_FREE_BYTES.
