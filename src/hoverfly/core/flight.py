@@ -201,19 +201,7 @@ class Flight:
         self.board.configure_outputs(p, self.motor_count, servo_count)
         self._out_more = self.mixer.servo_yaw or self.servos.count > 0 or self.output.bidir  # servos, ESC replies
         self._configure_rpm(p, hz)
-        if self.dyn_notch is None and p.get("dyn_notch_count") > 0:
-            from hoverfly.core.stages.dynnotch import DynNotch
-
-            self.dyn_notch = DynNotch()
-        if self.dyn_notch is not None:
-            self.dyn_notch.configure(p, hz)
-            self._dyn_on = self.dyn_notch.active
-            if self._dyn_on and self._fixed_imu_on and self.fixed_dyn is None:
-                from hoverfly.core.fastpass.fixeddyn import FixedDynNotch
-
-                self.fixed_dyn = FixedDynNotch()
-            self._dyn_fixed = self.fixed_dyn is not None and self.fixed_dyn.configure(
-                self.dyn_notch, self.signals, self._fixed_imu_on)
+        self._configure_dyn(p, hz)
         self._rx_timeout_us = p.get("rx_timeout_ms") * 1000
         self._route()
         self._configured_at = p.changed
@@ -234,6 +222,23 @@ class Flight:
             self.fixed_rpm = FixedRpmFilter()
         self._rpm_fixed = self.fixed_rpm is not None and self.fixed_rpm.configure(
             self.rpm_filter, self.signals, self._fixed_imu_on)
+
+    def _configure_dyn(self, p, hz):
+        """The dynamic notch, where dyn_notch_count asks for it (in fixed point with the fixed IMU filters)."""
+        if self.dyn_notch is None:
+            if p.get("dyn_notch_count") == 0:
+                return
+            from hoverfly.core.stages.dynnotch import DynNotch
+
+            self.dyn_notch = DynNotch()
+        self.dyn_notch.configure(p, hz)
+        self._dyn_on = self.dyn_notch.active
+        if self._dyn_on and self._fixed_imu_on and self.fixed_dyn is None:
+            from hoverfly.core.fastpass.fixeddyn import FixedDynNotch
+
+            self.fixed_dyn = FixedDynNotch()
+        self._dyn_fixed = self.fixed_dyn is not None and self.fixed_dyn.configure(
+            self.dyn_notch, self.signals, self._fixed_imu_on)
 
     def _plane_stages(self):
         """A plane's controller (float and fixed point) and hand launch, made at its first configure, and wired
