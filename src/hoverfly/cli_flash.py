@@ -25,8 +25,8 @@ PACKAGE = pathlib.Path(__file__).resolve().parent
 # What goes onto the device: the portable code and the rp2 board, nothing host-side.
 BUNDLE_DIRS = ("core", "protocols", "drivers", "accel", "boards/rp2")
 BUNDLE_FILES = ("__init__.py", "compat.py", "boards/__init__.py", "boards/bridge_fw.py")
-ARCH = {"rp2040": "armv6m", "rp2350": "armv7m", "rp2350-riscv": "rv32imc", "unix-x64": "x64"}
-CHIPS = ("rp2040", "rp2350", "rp2350-riscv")  # the boards; unix-x64 is the PC's MicroPython
+ARCH = {"rp2040": "armv6m", "rp2350": "armv7m", "rp2350-riscv": "rv32imc", "unix-x64": "x64", "unix-x86": "x86"}
+CHIPS = ("rp2040", "rp2350", "rp2350-riscv")  # the boards; unix-x64/x86 are the PC's MicroPython, 64/32-bit
 # Modules compiled to machine code. Native code keeps its frames on the C stack, where MicroPython gives
 # a bytecode function whose state (locals and value stack) passes 11 words a frame from the heap on every
 # call; the pass keeps its frames within that (tests/test_perf_rules.py), so what native code still saves
@@ -146,7 +146,8 @@ def register(sub):
     p.add_argument("--port", help="the Pico's serial port (e.g. /dev/ttyACM0, or mpremote's 'auto')")
     p.add_argument("--out", metavar="DIR", help="build the bundle into DIR (no device needed)")
     p.add_argument("--chip", choices=sorted(ARCH), default="rp2040",
-                   help="target chip (sets mpy-cross -march); unix-x64: MicroPython's unix port on a PC")
+                   help="target chip (sets mpy-cross -march); unix-x64 / unix-x86: MicroPython's unix port "
+                        "on a PC, 64- or 32-bit")
     p.add_argument("--bytecode", action="store_true",
                    help="no machine code: every module as bytecode (the smallest bundle, a slower pass)")
     p.add_argument("--mpy-cross", dest="mpy_cross", metavar="PATH", help="the mpy-cross program")
