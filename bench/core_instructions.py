@@ -134,7 +134,7 @@ def main():
         extra.append("--plane")
         result["plane"] = True
     mp = micropython_vm()
-    runtimes = [("cpython", [sys.executable, me], dict(os.environ, PYTHONHASHSEED="0"))]
+    runtimes = [("cpython", [sys.executable, me], dict(os.environ, PYTHONHASHSEED="0", HOVERFLY_NATIVE="0"))]
     if mp is None:
         result["micropython"] = {"error": "no micropython VM"}
     else:

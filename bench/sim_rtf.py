@@ -15,9 +15,11 @@ Prints one JSON object:
     .venv/bin/python bench/sim_rtf.py --bridge   # both: the bridged flight's figures under "bridge"
     .venv/bin/python bench/sim_rtf.py --airframe trainer   # a plane (bank-steps): JSBSim and the fixed-wing core
     .venv/bin/python bench/sim_rtf.py --airframe trainer --plane-side   # a plane: JSBSim + IMU model only
-    .venv/bin/python bench/sim_rtf.py --native    # on the native twins (python -m hoverfly.native build first)
+    .venv/bin/python bench/sim_rtf.py --python    # on the .py files alone (HOVERFLY_NATIVE=0)
 
-native_modules says how many of hoverfly/native.py's modules ran compiled (0: all from their .py files).
+A flight runs on hoverfly/native.py's compiled twins wherever they are built and current (`./dev` builds them; by
+hand: python -m hoverfly.native build), as `hoverfly fly` does: that is the default path. native_modules says how
+many of native.MODULES ran compiled (0: all from their .py files); --python measures the .py files alone.
 
 With --firmware micropython the flight core runs in a MicroPython process over the lockstep bridge
 (sim/bridge.py): then the JSON gives the real-time factor and, per step, the CPU time of this process
@@ -34,7 +36,9 @@ import pstats
 import sys
 import time
 
-if "--native" in sys.argv:  # before hoverfly is imported: it installs the twins' finder at import
+if "--python" in sys.argv:  # before hoverfly is imported: it installs the twins' finder at import
+    os.environ["HOVERFLY_NATIVE"] = "0"
+elif "--native" in sys.argv:
     os.environ["HOVERFLY_NATIVE"] = "1"
 
 from hoverfly import native  # noqa: E402
@@ -197,8 +201,10 @@ def main():
     ap.add_argument("--no-profile", action="store_true")
     ap.add_argument("--firmware", choices=("cpython", "micropython"), default="cpython")
     ap.add_argument("--duration", type=float, default=None, help="seconds to fly (default: the scenario's)")
-    ap.add_argument("--native", action="store_true", help="the flight on hoverfly.native's compiled twins "
-                    "(as HOVERFLY_NATIVE=1; build them with python -m hoverfly.native build)")
+    ap.add_argument("--python", action="store_true", help="the flight on the .py files alone, not on "
+                    "hoverfly.native's compiled twins (as HOVERFLY_NATIVE=0)")
+    ap.add_argument("--native", action="store_true", help="look for the twins even where none were ever built "
+                    "(as HOVERFLY_NATIVE=1; the default uses them wherever built)")
     ap.add_argument("--bridge", action="store_true",
                     help="also fly 6 s over the firmware bridge (MicroPython) and add its figures as 'bridge'")
     ap.add_argument("--plane-side", action="store_true", help="a plane: the simulator's side alone (JSBSim, IMU)")

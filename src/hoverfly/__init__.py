@@ -6,5 +6,5 @@ VERSION = (0, 1, 0)
 __version__ = "0.1.0"
 
 if sys.implementation.name == "cpython":
-    # HOVERFLY_NATIVE=1: the simulated flight's modules from their compiled twins, where built (hoverfly/native.py)
+    # the simulated flight runs on its compiled twins where built, unless HOVERFLY_NATIVE=0 (hoverfly/nativeenv.py)
     from hoverfly import nativeenv  # noqa: F401

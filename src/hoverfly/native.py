@@ -9,7 +9,12 @@ figures). Nothing changes for MicroPython or the Pico: the portable .py files st
 
     python -m hoverfly.native build     # Cython and a C compiler (pip install cython); about 2 CPU minutes
     python -m hoverfly.native status    # which modules have a current native twin
-    HOVERFLY_NATIVE=1 hoverfly fly ...  # flights (and sweeps, tunes, the benches) use them
+    hoverfly fly ...                    # flights (and sweeps, tunes, the benches) use them once built
+    HOVERFLY_NATIVE=0 hoverfly fly ...  # the same flight on the .py files alone
+
+`./dev` builds them (only what changed since the last build) before it flies, tests or benches, wherever a C
+compiler and Cython are: the default path of a simulated flight is the compiled one. The test suite runs the .py
+files (tests/conftest.py sets HOVERFLY_NATIVE=0) and tests/test_native.py holds the two equal.
 
 A twin is kept under the SHA-256 of the source it was compiled from (in HOVERFLY_NATIVE_DIR, by default
 ~/.cache/hoverfly/native/<python>), and used only while that source is unchanged: a module edited since
@@ -20,146 +25,23 @@ never change it.
 import os
 import sys
 
-# What only a build or an installed finder needs (hashlib, pathlib, importlib's loaders, Cython) is imported where
-# it is used: hoverfly/nativeenv.py imports this module at start-up when HOVERFLY_NATIVE is set.
-
-# What a lockstep step runs: the simulator's models and the flight core's pass, tasks and codecs. Modules
-# that find their files by __file__ (scenarios, airframes, the bridge) stay Python: a twin lives elsewhere.
-MODULES = (
-    "hoverfly.compat",
-    "hoverfly.sim.physics",
-    "hoverfly.sim.sensors",
-    "hoverfly.sim.pilot",
-    "hoverfly.sim.esc",
-    "hoverfly.sim.rxlink",
-    "hoverfly.sim.board",
-    "hoverfly.sim.runner",
-    "hoverfly.core.flight",
-    "hoverfly.core.scheduler",
-    "hoverfly.core.board",
-    "hoverfly.core.events",
-    "hoverfly.core.signals",
-    "hoverfly.core.stages.filters",
-    "hoverfly.core.stages.pid",
-    "hoverfly.core.stages.control",
-    "hoverfly.core.stages.rates",
-    "hoverfly.core.stages.rc",
-    "hoverfly.core.stages.mixer",
-    "hoverfly.core.stages.output",
-    "hoverfly.core.stages.estimator",
-    "hoverfly.core.stages.receiver",
-    "hoverfly.core.command.commander",
-    "hoverfly.core.command.autopilot",
-    "hoverfly.core.command.motortest",
-    "hoverfly.core.safety.arming",
-    "hoverfly.core.safety.failsafe",
-    "hoverfly.core.safety.supervisor",
-    "hoverfly.protocols.dshot",
-    "hoverfly.protocols.crsf",
-    "hoverfly.protocols.rxcodec",
-    "hoverfly.protocols.crc",
-    "hoverfly.protocols.bridge",  # the firmware bridge's host end (sim/bridge.py finds files by __file__)
+# The twins' finder and where they live are hoverfly/nativeenv.py's (loaded at start-up); this module builds them.
+from hoverfly.nativeenv import (  # noqa: F401 - the names the build, the tests and the benches take from here
+    MODULES,
+    NativeFinder,
+    _suffix,
+    cache_dir,
+    digest,
+    install,
+    report,
+    source_path,
+    twin_path,
 )
 
 # Cython as a compiler of plain Python: no C types guessed for locals (a C double's `**` or `%` is not
 # Python's), and no contraction of a * b + c into one rounding (an FMA, where the CPU has one).
 _DIRECTIVES = {"language_level": 3, "infer_types": False}
 _CFLAGS = ["-ffp-contract=off"]
-_SRC = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))  # the folder holding hoverfly/
-
-
-def _suffix():
-    import importlib.machinery
-
-    return importlib.machinery.EXTENSION_SUFFIXES[0]
-
-
-def cache_dir():
-    import pathlib
-
-    d = os.environ.get("HOVERFLY_NATIVE_DIR")
-    if d:
-        return pathlib.Path(d)
-    return pathlib.Path.home() / ".cache" / "hoverfly" / "native" / sys.implementation.cache_tag
-
-
-def source_path(name):
-    import pathlib
-
-    return pathlib.Path(_SRC).joinpath(*name.split(".")).with_suffix(".py")
-
-
-def digest(path):
-    import hashlib
-    import pathlib
-
-    return hashlib.sha256(pathlib.Path(path).read_bytes()).hexdigest()[:20]
-
-
-def twin_path(name, source_digest, directory=None):
-    return (directory or cache_dir()) / ("%s.%s%s" % (name, source_digest, _suffix()))
-
-
-def _twin_loader(name, path, source):
-    """A loader of the twin at path that gives the module its source's __file__: code that reads a module's
-    source or finds files beside it (fastgen, the bridge) finds them where they are."""
-    import importlib.machinery
-
-    class TwinLoader(importlib.machinery.ExtensionFileLoader):
-        def exec_module(self, module):
-            module.__file__ = source
-            importlib.machinery.ExtensionFileLoader.exec_module(self, module)
-            module.__file__ = source
-
-    return TwinLoader(name, path)
-
-
-class NativeFinder:
-    """On sys.meta_path: a listed module whose current source has a twin is loaded from the twin."""
-
-    def __init__(self, modules, directory):
-        self.modules = frozenset(modules)
-        self.directory = directory
-        self.loaded = []
-        self.python = []  # listed, but imported from the .py: no twin of this source
-
-    def find_spec(self, fullname, path=None, target=None):
-        if fullname not in self.modules:
-            return None
-        import importlib.machinery
-        import importlib.util
-
-        spec = importlib.machinery.PathFinder.find_spec(fullname, path)
-        if spec is None or not (spec.origin or "").endswith(".py"):
-            return None
-        so = twin_path(fullname, digest(spec.origin), self.directory)
-        if not so.is_file():
-            self.python.append(fullname)
-            return None
-        self.loaded.append(fullname)
-        loader = _twin_loader(fullname, str(so), spec.origin)
-        return importlib.util.spec_from_file_location(fullname, str(so), loader=loader)
-
-
-_finder = None
-
-
-def install(modules=MODULES, directory=None):
-    """Import the listed modules from their current twins from now on; returns the finder (one per process).
-    Modules imported before the call stay as they are: install before importing the simulator."""
-    global _finder
-    if _finder is None:
-        _finder = NativeFinder(modules, directory or cache_dir())
-        sys.meta_path.insert(0, _finder)
-    return _finder
-
-
-def report():
-    """Which listed modules this process runs native and which from Python ({} when not installed)."""
-    if _finder is None:
-        return {}
-    return {"native": sorted(set(_finder.loaded)), "python": sorted(set(_finder.python))}
-
 
 def _build_one(name, directory, work):
     """Compile one module to its twin; returns (name, None) or (name, why it failed)."""
@@ -248,9 +130,22 @@ def main(argv=None):
     ap = argparse.ArgumentParser(prog="python -m hoverfly.native", description=__doc__.split("\n\n")[0])
     ap.add_argument("action", choices=("build", "status"))
     ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
+    ap.add_argument("--quiet", action="store_true", help="build: print nothing when every twin is current")
     args = ap.parse_args(argv)
     if args.action == "build":
-        failed = build(jobs=args.jobs, progress=lambda n, why: print(("FAILED %s: %s" % (n, why)) if why else n))
+        todo = [m for m, state in status().items() if state != "current"]
+        if args.quiet and not todo:
+            return 0
+        if args.quiet:
+            print("compiling %d of the simulator's modules with Cython (only what changed since the last build)"
+                  % len(todo), flush=True)
+        def say(name, why):
+            print(("FAILED %s: %s" % (name, why)) if why else name)
+
+        failed = build(todo, jobs=args.jobs, progress=None if args.quiet else say)
+        if args.quiet:
+            for name, why in sorted(failed.items()):
+                print("FAILED %s: %s" % (name, why))
         print("%d of %d modules native in %s" % (len(MODULES) - len(failed), len(MODULES), cache_dir()))
         return 1 if failed else 0
     for name, state in status().items():
