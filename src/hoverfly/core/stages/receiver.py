@@ -107,6 +107,7 @@ class Receiver:
         self.serial = True  # a serial codec fed in this task (not pin edges, not core 1's frames)
         self._link = None  # rxcore.LinkView once the codec runs on core 1 (use_core1)
         self._crsf = False
+        self._flags = False  # the codec reads the receiver's failsafe and frame-lost flags (SBUS)
         self._pwm = False
         self.pwm_channels = 6
         self.channels_us = array("H", [1500] * CHANNELS)
@@ -152,6 +153,7 @@ class Receiver:
             self.decoder = make_decoder(provider, pwm_channels)
             self.serial = provider in ("crsf", "sbus", "ibus")
             self._crsf = provider == "crsf"
+            self._flags = provider == "sbus"
             self._pwm = provider == "pwm"
             self.channels_us = self.decoder.channels_us
             self._win_errors = 0
@@ -192,12 +194,12 @@ class Receiver:
         """Take what the board received; returns the number of new valid frames (0 if none)."""
         # Few locals here: a bytecode function whose frame (locals and value stack) passes 11 machine
         # words takes it from the heap on every call on MicroPython (docs/pico.md); the rarer paths are
-        # methods of their own.
+        # methods of their own. A frame's own bookkeeping is here, not a method: it runs at every frame.
         if self.serial:
-            dec = self.decoder
             n = board.read_rx(self._buf)
             new = 0
             if n > 0:  # many polls find nothing, and then the codec's counts cannot have moved either
+                dec = self.decoder
                 new = dec.feed(self._buf, n)
                 if n >= _READ_BYTES:  # a full read: more may be waiting
                     new += self._read_more(board)
@@ -207,7 +209,13 @@ class Receiver:
         else:
             new = self._read_other(board, now_us)
         if new:
-            new = self._count_frames(now_us, new)
+            if self._flags:  # a codec whose receiver flags its own failsafe and repeated frames (SBUS)
+                new = self._flagged(new)
+            if new:  # the pilot's sticks
+                self.rx_failsafe = False
+                self.frames += new
+                self._win_valid += new
+                self.last_frame_us = now_us
         self.new_frames = new
         if ticks_diff(now_us, self._check_us) >= 0:  # one look at the clock a call, for both timed checks
             self._housekeeping(now_us)
@@ -283,23 +291,19 @@ class Receiver:
         self.errors = dec.errors
         return new
 
-    def _count_frames(self, now_us, new):
-        """The link watch's view of `new` decoded frames; returns how many carry the pilot's sticks."""
+    def _flagged(self, new):
+        """The flags of `new` decoded frames from a receiver that sets them (SBUS): returns how many carry the
+        pilot's sticks (0 for the receiver's failsafe values; repeats still carry the last ones)."""
         dec = self.decoder
-        flags = self.serial or self._link is not None  # a serial codec, here or on core 1: SBUS's flags
-        if flags and dec.failsafe:
+        if dec.failsafe:
             # The receiver's failsafe values are not the pilot's sticks: a lost frame.
             self.failsafe_frames += new
             self._win_failsafe += new
             self.rx_failsafe = True
             return 0
-        if flags and dec.frame_lost:
+        if dec.frame_lost:
             self.lost_frames += new  # a repeat: still the pilot's last sticks
             self._win_repeat += new
-        self.rx_failsafe = False
-        self.frames += new
-        self._win_valid += new
-        self.last_frame_us = now_us
         return new
 
     def _close_window(self, now_us):
