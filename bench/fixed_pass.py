@@ -35,7 +35,7 @@ def _gyros(f):
 
 def _rate_loop(n, fixed, sp, att, i_active, airmode):
     for _ in range(n):
-        fixed.update(sp, att, 1000, i_active, airmode)
+        fixed.update(sp, 1000, i_active, airmode)
 
 
 def _imu_loop(n, imu, sp, att, i_active, airmode):
@@ -91,7 +91,7 @@ def main():
         collect_garbage()
         if only != "imu":
             for _ in range(count):
-                fixed.update(sp, att, 1000, i_active, airmode)
+                fixed.update(sp, 1000, i_active, airmode)
         if only != "rate":
             for _ in range(count):
                 imu.update()

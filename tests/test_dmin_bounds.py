@@ -10,7 +10,7 @@ import math
 import random
 
 import pytest
-from test_fixedrate import _stages  # tests/portable (conftest puts it on the path)
+from test_fixedrate import _stages, set_attitude  # tests/portable (conftest puts it on the path)
 
 from hoverfly.core.fastpass import fixedrate
 from test_fixedrate_bounds import _LIMIT, _WILD, checked  # noqa: F401 (checked: the fixture)
@@ -38,13 +38,13 @@ def test_d_min_and_anti_gravity_stay_within_32_bits_on_extreme_inputs(checked, s
         pick = (lambda: rnd.choice(_WILD)) if wild else (lambda: rnd.uniform(-130.0, 130.0))
         sp.throttle_norm = rnd.choice((0.0, 1.0, 0.0, 1.0, 1e30, float("nan"), rnd.random()))
         sp.roll_angle_rad = pick()
-        s.attitude.roll_rad = pick()
+        set_attitude(s.attitude, pick(), s.attitude.pitch_rad)
         for k in range(3):
             s.gyro_rad_s[k] = pick()
             sp.rate_rad_s[k] = pick()
         sp.mode = n % 3
         dt_us = rnd.choice((0, 1, 64, 1000, 20000, 10 ** 6))
-        fx.update(sp, s.attitude, dt_us, rnd.random() < 0.9, rnd.random() < 0.5)
+        fx.update(sp, dt_us, rnd.random() < 0.9, rnd.random() < 0.5)
         for v in fx.st:
             assert -_LIMIT <= v < _LIMIT
         for v in s.torque_norm:

@@ -11,7 +11,7 @@ import math
 import random
 
 import pytest
-from test_fixedrate import _stages  # tests/portable (conftest puts it on the path)
+from test_fixedrate import _stages, set_attitude  # tests/portable (conftest puts it on the path)
 
 from hoverfly.core.fastpass import fixedrate
 
@@ -98,15 +98,14 @@ def test_no_intermediate_reaches_2_to_the_31_on_extreme_inputs(checked, sets):
         sp.throttle_norm = rnd.choice((0.0, 1.0, 1e30, -1e30, float("nan"), rnd.random()))
         sp.roll_angle_rad = pick()
         sp.pitch_angle_rad = pick()
-        s.attitude.roll_rad = pick()
-        s.attitude.pitch_rad = pick()
+        set_attitude(s.attitude, pick(), pick())
         for k in range(3):
             s.gyro_rad_s[k] = pick()
             sp.rate_rad_s[k] = pick()
             sp.stick_norm[k] = rnd.choice((1.0, -1.0, 0.0, 1e30, float("nan")))
         sp.mode = n % 3
         dt_us = rnd.choice((0, -3, 1, 64, 65, 1000, 19999, 20000, 10 ** 6))
-        fx.update(sp, s.attitude, dt_us, rnd.random() < 0.9, rnd.random() < 0.5)
+        fx.update(sp, dt_us, rnd.random() < 0.9, rnd.random() < 0.5)
         for v in fx.st:
             assert -_LIMIT <= v < _LIMIT
         for v in s.motor_norm:

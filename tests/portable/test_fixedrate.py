@@ -69,6 +69,15 @@ def _walk(x, step, lim, rnd):
     return x
 
 
+def set_attitude(att, roll_rad, pitch_rad):
+    """The estimate as the estimators leave it: the attributes (the float controller's) and the array
+    (FixedRate's), alike (Attitude.set_from writes both)."""
+    att.roll_rad = roll_rad
+    att.pitch_rad = pitch_rad
+    att.angles[0] = roll_rad
+    att.angles[1] = pitch_rad
+
+
 def _inputs(rnd, n, sp, s):
     """The next pass's inputs: a random walk as a flight's signals move (the gyro noisier), and a
     pass time that jitters by a few µs. Returns dt in µs."""
@@ -76,8 +85,9 @@ def _inputs(rnd, n, sp, s):
     sp.roll_angle_rad = _walk(sp.roll_angle_rad, 0.001, 0.9, rnd)
     sp.pitch_angle_rad = _walk(sp.pitch_angle_rad, 0.001, 0.9, rnd)
     # the attitude follows its setpoint, a little off
-    s.attitude.roll_rad = sp.roll_angle_rad + _walk(s.attitude.roll_rad - sp.roll_angle_rad, 0.002, 0.08, rnd)
-    s.attitude.pitch_rad = sp.pitch_angle_rad + _walk(s.attitude.pitch_rad - sp.pitch_angle_rad, 0.002, 0.08, rnd)
+    a = s.attitude
+    set_attitude(a, sp.roll_angle_rad + _walk(a.roll_rad - sp.roll_angle_rad, 0.002, 0.08, rnd),
+                 sp.pitch_angle_rad + _walk(a.pitch_rad - sp.pitch_angle_rad, 0.002, 0.08, rnd))
     for k in range(3):
         s.gyro_rad_s[k] = _walk(s.gyro_rad_s[k], 0.05, 2.0, rnd)
         sp.rate_rad_s[k] = _walk(sp.rate_rad_s[k], 0.02, 2.0, rnd)
@@ -116,7 +126,7 @@ def _agree(sets, mode, passes=300, seed=7):
                 m.saturated, c.tpa)
         for k in range(3):
             sp.rate_rad_s[k] = keep[k]
-        fx.update(sp, s.attitude, dt_us, i_active, airmode)
+        fx.update(sp, dt_us, i_active, airmode)
         for k in range(3):
             worst[0] = max(worst[0], abs(want[0][k] - s.torque_norm[k]))
             worst[0] = max(worst[0], abs(want[1][k] - s.pid_terms[k]), abs(want[1][k + 6] - s.pid_terms[k + 6]),
@@ -168,7 +178,7 @@ def test_the_state_goes_back_to_the_float_stages_when_the_fixed_pass_stops():
     for n in range(50):
         dt_us = _inputs(rnd, n, sp, s)
         sp.throttle_norm = 0.4
-        fx.update(sp, s.attitude, dt_us, True, True)
+        fx.update(sp, dt_us, True, True)
     fixed_i = s.pid_terms[3]
     assert fixed_i != 0.0
     assert fx.configure(c, m, 1000, "float", s) is False
@@ -184,7 +194,7 @@ def test_the_state_goes_back_to_the_float_stages_when_the_fixed_pass_stops():
     want = array("f", s.torque_norm)
     for k in range(3):
         sp.rate_rad_s[k] = keep[k]
-    twin.update(sp, s.attitude, dt_us, True, True)
+    twin.update(sp, dt_us, True, True)
     for k in range(3):
         assert abs(want[k] - s.torque_norm[k]) < 2e-4, (k, want[k], s.torque_norm[k])
 
@@ -226,8 +236,7 @@ def test_the_viper_twin_gives_the_python_twins_bits():
                 s.setpoint.throttle_norm = fin[0]
                 s.setpoint.roll_angle_rad = fin[1]
                 s.setpoint.pitch_angle_rad = fin[2]
-                s.attitude.roll_rad = fin[3]
-                s.attitude.pitch_rad = fin[4]
+                set_attitude(s.attitude, fin[3], fin[4])
             for arr in range(3):
                 for k in range(3):
                     v = rnd.span(40.0 if arr < 2 else 1.2)
@@ -240,8 +249,8 @@ def test_the_viper_twin_gives_the_python_twins_bits():
             airmode = rnd.unit() > 0.5
             dt_us = (0, -5, 10, 64, 999, 1000, 1001, 125, 4000, 70000)[n % 10]
             sa.setpoint.mode = sb.setpoint.mode = mode
-            fixedrate.update_python(fa, sa.setpoint, sa.attitude, dt_us, i_active, airmode)
-            fb.update(sb.setpoint, sb.attitude, dt_us, i_active, airmode)
+            fixedrate.update_python(fa, sa.setpoint, dt_us, i_active, airmode)
+            fb.update(sb.setpoint, dt_us, i_active, airmode)
             assert ma.saturated == mb.saturated, (sets, n, ma.saturated, mb.saturated)
             assert ca.tpa == cb.tpa, (sets, n, ca.tpa, cb.tpa)
             for k in range(40):
@@ -267,14 +276,14 @@ def test_a_fixed_pass_allocates_nothing_on_micropython():
     sp.throttle_norm = 0.45
     rnd = Lcg(5)
     _inputs(rnd, 0, sp, s)
-    fx.update(sp, s.attitude, 1000, True, True)
+    fx.update(sp, 1000, True, True)
     gc.collect()
     gc.disable()
     try:
         a0 = gc.mem_alloc()
         for n in range(50):
             sp.mode = n % 3
-            fx.update(sp, s.attitude, 1000 + (n & 1), True, n & 2)
+            fx.update(sp, 1000 + (n & 1), True, n & 2)
         used = gc.mem_alloc() - a0
     finally:
         gc.enable()
@@ -288,7 +297,7 @@ def test_an_unconfigured_stage_writes_nothing():
     s = Signals()
     fx = fixedrate.FixedRate()
     s.setpoint.throttle_norm = 0.5
-    fx.update(s.setpoint, s.attitude, 1000, True, True)
+    fx.update(s.setpoint, 1000, True, True)
     assert list(fx.st) == [0] * fixedrate.ST_SIZE
     assert list(s.motor_norm) == [0.0] * len(s.motor_norm)
 
@@ -310,7 +319,7 @@ def test_the_pid_terms_are_written_every_terms_every_passes():
                 s.setpoint.rate_rad_s[k] = rnd.span(2.0)
             before = list(s.pid_terms) + list(s.torque_norm)
             motors = list(s.motor_norm)
-            fx.update(s.setpoint, s.attitude, 1000, True, False)
+            fx.update(s.setpoint, 1000, True, False)
             changed.append(list(s.pid_terms) + list(s.torque_norm) != before)
             assert list(s.motor_norm) != motors  # the gyro moved: the motors follow at every pass
         if every == 1:

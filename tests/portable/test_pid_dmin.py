@@ -138,7 +138,7 @@ def test_the_fixed_pass_hands_d_min_and_anti_gravity_state_back():
         for k in range(3):
             s.gyro_rad_s[k] = rnd.span(3.0)
             sp.rate_rad_s[k] = rnd.span(3.0)
-        fx.update(sp, s.attitude, 1000, True, True)
+        fx.update(sp, 1000, True, True)
     fx.give_state()
     st = fx.st
     assert abs(c.roll.dmin_lowpass.y - st[fixedrate.S_DM + 3] / 32768.0) < 1e-6
@@ -168,8 +168,8 @@ def test_the_viper_twin_gives_the_python_twins_bits_with_d_min_and_anti_gravity(
             airmode = rnd.unit() > 0.5
             dt_us = (1000, 999, 64, 20000, 125)[n % 5]
             sa.setpoint.mode = sb.setpoint.mode = 0
-            fixedrate.update_python(fa, sa.setpoint, sa.attitude, dt_us, i_active, airmode)
-            fb.update(sb.setpoint, sb.attitude, dt_us, i_active, airmode)
+            fixedrate.update_python(fa, sa.setpoint, dt_us, i_active, airmode)
+            fb.update(sb.setpoint, dt_us, i_active, airmode)
             for k in range(fixedrate.ST_SIZE):
                 assert fa.st[k] == fb.st[k], (n, "st", k, fa.st[k], fb.st[k])
             for name in ("pid_terms", "torque_norm", "motor_norm"):

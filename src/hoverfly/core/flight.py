@@ -301,8 +301,8 @@ class Flight:
         # The pass in stages of their own, each method's frame (locals and value stack) within 11
         # machine words: a bigger one is taken from the heap and freed at every call on MicroPython
         # (bench/frame_sizes.py), and with the pass's float results that costs more than the calls.
-        # tests/test_perf_rules.py holds every function of the pass to it. This one is at 11: four
-        # locals, and the fixed controller's call (seven words of stack).
+        # tests/test_perf_rules.py holds every function of the pass to it. This one is at 10: four
+        # locals, and the fixed controller's call (six words of stack).
         dt_us = ticks_diff(now_us, self._last_us)
         self.pass_dt_us = dt_us
         self._last_us = now_us
@@ -314,7 +314,7 @@ class Flight:
         self.commander.update(sp, now_us)
         # 4. controller and 5. mixer: in fixed point (pid_math; MicroPython's zero-allocation pass), or float
         if self._fixed_on:
-            self.fixed.update(sp, self._attitude, dt_us, self.commander.i_active, self.commander.airmode_active)
+            self.fixed.update(sp, dt_us, self.commander.i_active, self.commander.airmode_active)
         elif self._plane:  # a plane's controller (fixed point where pid_math asks), its one motor
             self._control_plane(dt_us, sp)
         else:

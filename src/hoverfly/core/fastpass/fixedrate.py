@@ -36,6 +36,7 @@ from hoverfly.compat import IS_MICROPYTHON, const
 from hoverfly.core.fastpass.fixedmath import dec as _dec
 from hoverfly.core.fastpass.fixedmath import mul as _mul
 from hoverfly.core.stages.control import MODE_ACRO, MODE_ANGLE
+from hoverfly.core.stages.estimator import PITCH, ROLL
 from hoverfly.core.stages.pid import RELAX_THRESHOLD_RAD_S
 
 # ---- coefficient layout (co, array "i")
@@ -125,12 +126,11 @@ F_MODE = const(3)
 F_I_ACTIVE = const(4)
 F_AIRMODE = const(8)
 
-# fin: the pass's scalar inputs, stored by FixedRate.update (a float store allocates nothing)
+# fin: the set point's scalars, stored by FixedRate.update (a float store allocates nothing). The estimate's
+# angles are read from the Attitude's own array (attitude.angles, ROLL and PITCH), bound at configure.
 IN_THR = const(0)
 IN_ROLL_SP = const(1)
 IN_PITCH_SP = const(2)
-IN_ROLL = const(3)
-IN_PITCH = const(4)
 
 _ONE16 = const(65536)
 _LIM16 = const(0x800000)  # 2**23
@@ -198,12 +198,13 @@ def _level_rate(co, st, last, angle_sp, angle, inv_dt):
     return rate
 
 
-# fastpass: FixedRate.update co:i st:i fin:f gyro:f rate:f stick:f terms:f torque:f motor:f
+# fastpass: FixedRate.update co:i st:i fin:f gyro:f rate:f stick:f terms:f torque:f motor:f angles:f
 def rate_pass(co, st, io, flags, dt_us):
     """One pass of the angle loop, the three rate PIDs and the mixer. io = (fin, gyro, rate, stick,
-    terms, torque, motor): float arrays, read and written as core/stages/control.py and core/stages/mixer.py do.
+    terms, torque, motor, angles): float arrays, read and written as core/stages/control.py and
+    core/stages/mixer.py do (angles: the estimate, Attitude.angles).
     Returns bit 0: saturated, bit 1: the TPA factor changed (st[S_TPA], Q15)."""
-    fin, gyro, rate, stick, terms, torque, motor = io
+    fin, gyro, rate, stick, terms, torque, motor, angles = io
     mul = _mul
     # The PID terms and the torques are outputs for the log and the maintenance telemetry only: written
     # every co[TERMS_EVERY] passes (FixedRate.terms_every: every pass while a log runs).
@@ -240,8 +241,8 @@ def rate_pass(co, st, io, flags, dt_us):
     roll_sp = _dec(fin[IN_ROLL_SP], 16777216.0, _LIM24)
     pitch_sp = _dec(fin[IN_PITCH_SP], 16777216.0, _LIM24)
     if mode != MODE_ACRO:
-        lr = _level_rate(co, st, S_LAST_ROLL, roll_sp, _dec(fin[IN_ROLL], 16777216.0, _LIM24) - co[TRIM_ROLL], inv_dt)
-        lp = _level_rate(co, st, S_LAST_PITCH, pitch_sp, _dec(fin[IN_PITCH], 16777216.0, _LIM24) - co[TRIM_PITCH],
+        lr = _level_rate(co, st, S_LAST_ROLL, roll_sp, _dec(angles[ROLL], 16777216.0, _LIM24) - co[TRIM_ROLL], inv_dt)
+        lp = _level_rate(co, st, S_LAST_PITCH, pitch_sp, _dec(angles[PITCH], 16777216.0, _LIM24) - co[TRIM_PITCH],
                          inv_dt)
         if mode == MODE_ANGLE:
             sp0 = lr
@@ -485,7 +486,7 @@ class FixedRate:
     def __init__(self):
         self.co = array("i", [0] * CO_SIZE)
         self.st = array("i", [0] * ST_SIZE)
-        self.fin = array("f", [0.0] * 5)
+        self.fin = array("f", [0.0] * 3)
         self.active = False
         self._io = None
         # the viper twin's table of the arrays' addresses (accel/rate.py), written by configure
@@ -511,7 +512,7 @@ class FixedRate:
         self._mixer = mixer
         sp = signals.setpoint
         self._io = (self.fin, signals.gyro_rad_s, sp.rate_rad_s, sp.stick_norm, signals.pid_terms,
-                    signals.torque_norm, signals.motor_norm)
+                    signals.torque_norm, signals.motor_norm, signals.attitude.angles)
         co = self.co
         c = controller
         co[ANG_GAIN_M], co[ANG_GAIN_S] = coef(c.angle_gain)
@@ -567,9 +568,9 @@ class FixedRate:
             tab = self._tab
             _viper.bind(tab, 0, co)
             _viper.bind(tab, 1, self.st)
-            for k in range(7):
+            for k in range(8):
                 _viper.bind(tab, 2 + k, self._io[k])
-            _viper.bind(tab, 9, _viper.LOG2)
+            _viper.bind(tab, 10, _viper.LOG2)
         if not self.active:
             self._take_state()
         self.active = True
@@ -646,15 +647,15 @@ class FixedRate:
         """The controller's TPA factor from the pass's (the viper twin calls this only when it changed)."""
         self._controller.tpa = self.st[S_TPA] * _INV15
 
-    def update(self, sp, attitude, dt_us, i_active, airmode_active):
-        """The controller and mixer for this pass (Flight.step's steps 4 and 5). On MicroPython the
-        viper twin (accel/rate.py `update`) stands in for this method; `update_python` keeps it."""
+    def update(self, sp, dt_us, i_active, airmode_active):
+        """The controller and mixer for this pass (Flight.step's steps 4 and 5), on the estimate in
+        signals.attitude.angles (configure's signals: every writer of the Attitude writes the array with its
+        attributes). On MicroPython the viper twin (accel/rate.py `update`) stands in for this method;
+        `update_python` keeps it."""
         fin = self.fin
         fin[0] = sp.throttle_norm
         fin[1] = sp.roll_angle_rad
         fin[2] = sp.pitch_angle_rad
-        fin[3] = attitude.roll_rad
-        fin[4] = attitude.pitch_rad
         flags = sp.mode
         if i_active:
             flags |= F_I_ACTIVE
