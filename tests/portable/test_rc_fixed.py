@@ -193,32 +193,40 @@ def _lcg_config(rnd):
 
 def test_the_viper_twin_gives_the_python_twins_bits():
     if not IS_MICROPYTHON:
+        assert RcInput.update is rcmod.update_python
         return  # CPython has no viper: the Python twin is the stage (the test above)
-    assert rcmod._rc_pass is rc_viper.rc_pass
+    assert RcInput.update is rc_viper.update
     rnd = Lcg(11)
     one = 1 << 20
+    # two fixed stages, each with its own set point: the Python update on one, the viper update on the other
+    rp = _rc("fixed")
+    rv = _rc("fixed")
+    sp_p = Setpoint()
+    sp_v = Setpoint()
     for config in range(40):
         co = _lcg_config(rnd)
-        st_p = array("i", [0] * ST_SIZE)
+        for k in range(CO_SIZE):
+            rp._co[k] = rv._co[k] = co[k]
+        rp._angle_per_q = rv._angle_per_q = rnd.unit() * 2.0 / one
         for i in range(4):
             lo = 0 if i == 3 else -one
             for base in (S_X, S_S1, S_Y):
-                st_p[base + i] = lo + int(rnd.unit() * (one - lo + 1))
-        st_v = array("i", st_p)
-        out = [array("f", [0.0] * 3) for _ in range(4)]
+                rp._st[base + i] = rv._st[base + i] = lo + int(rnd.unit() * (one - lo + 1))
+        rp._refresh()
+        rv._refresh()
         for n in range(60):
             if n % 7 == 0:
                 for i in range(4):
                     lo = 0 if i == 3 else -one
                     v = (lo, one, 0, lo + int(rnd.unit() * (one - lo + 1)))[int(rnd.unit() * 4)]
-                    st_p[S_X + i] = v
-                    st_v[S_X + i] = v
-            mp = rcmod.rc_pass(co, st_p, out[0], out[1])
-            mv = rc_viper.rc_pass(co, st_v, out[2], out[3])
-            assert mp == mv, (config, n)
-            assert list(st_p) == list(st_v), (config, n)
-            assert _bits32(out[0], 3) == _bits32(out[2], 3), (config, n)
-            assert _bits32(out[1], 3) == _bits32(out[3], 3), (config, n)
+                    rp._st[S_X + i] = rv._st[S_X + i] = v
+            rcmod.update_python(rp, sp_p)
+            rv.update(sp_v)
+            assert list(rp._st) == list(rv._st), (config, n)
+            assert _bits32(sp_p.stick_norm, 3) == _bits32(sp_v.stick_norm, 3), (config, n)
+            assert _bits32(sp_p.rate_rad_s, 3) == _bits32(sp_v.rate_rad_s, 3), (config, n)
+            for name in ("roll_angle_rad", "pitch_angle_rad", "throttle_norm"):
+                assert getattr(sp_p, name) == getattr(sp_v, name), (config, n, name)
 
 
 def test_rc_frame_twins_agree():

@@ -55,7 +55,7 @@ ST_SIZE = const(12)
 
 _viper = None
 if IS_MICROPYTHON:
-    try:  # generated from rc_pass and rc_frame below by hoverfly.fastgen; absent, or no viper: the Python runs
+    try:  # generated from update/rc_pass and rc_frame below by hoverfly.fastgen; absent, or no viper: the Python runs
         from hoverfly.accel import rc as _viper
     except (ImportError, SyntaxError, NameError, ValueError, TypeError):  # TypeError: ViperTypeError
         pass
@@ -87,9 +87,10 @@ def _mul_rate(a, c):
     return (t >> 5) + ((((t & 31) << 11) + a * (c & 0x7FF)) >> 16)
 
 
-# fastpass: rc_pass co:i st:i stick:f rate:f
+# fastpass: RcInput.update co:i st:i stick:f@ rate:f@
 def rc_pass(co, st, stick, rate):
-    """One pass of the stick shaping in fixed point (accel/rc.py's viper is generated from it): the four PT2s
+    """One pass of the stick shaping in fixed point (RcInput.update's; on MicroPython the viper update
+    generated from it and the method, accel/rc.py, stands in for the method): the four PT2s
     (roll, pitch, yaw, throttle) on st's Q20 inputs, the smoothed sticks into stick[0..2] and their
     rates through the "actual" curve into rate[0..2] (floats). Returns which outputs changed: bit i
     for st[S_Y + i]. A PT2 sitting on its input is not run. Bounds: inputs within +-2**20, so the
@@ -124,8 +125,6 @@ def rc_pass(co, st, stick, rate):
             rate[i] = (-r if y < 0 else r) * _INV16
     return changed
 
-
-_rc_pass = _viper.rc_pass if HAS_ACCEL else rc_pass
 
 # new_frame's table (RcInput._fco, from configure): the sticks' channels (0-based), their deadbands,
 # whether the fixed-point stage takes the sticks, and the ARM, HORIZON, ANGLE, AIRMODE and autopilot (seed
@@ -327,6 +326,13 @@ class RcInput:
         self.fixed = False
         self._co = array("i", [0] * CO_SIZE)
         self._st = array("i", [0] * ST_SIZE)
+        # the viper update's table of the two arrays' addresses (accel/rc.py): neither is ever replaced
+        self._tab = None
+        if HAS_ACCEL:
+            self._tab = array("i", [0] * _viper.TAB_SIZE)
+            _viper.bind(self._tab, 0, self._co)
+            _viper.bind(self._tab, 1, self._st)
+            _viper.bind(self._tab, 2, _viper.LOG2)
         self._angle_per_q = 0.0
         self._roll_angle_rad = 0.0
         self._pitch_angle_rad = 0.0
@@ -582,13 +588,14 @@ class RcInput:
         self._forget()
 
     def update(self, sp):
-        """Smooth the latest frame into the setpoint (every pass)."""
+        """Smooth the latest frame into the setpoint (every pass). On MicroPython the viper generated from
+        this method and rc_pass (accel/rc.py `update`) stands in for it; `update_python` keeps it."""
         # Few locals on purpose: a bytecode function whose frame (locals and value stack) passes 11
         # machine words takes it from the heap on every call on MicroPython (docs/pico.md).
         if not self.fixed:
             self._update_float(sp)
             return
-        changed = _rc_pass(self._co, self._st, sp.stick_norm, sp.rate_rad_s)
+        changed = rc_pass(self._co, self._st, sp.stick_norm, sp.rate_rad_s)
         if changed:
             st = self._st
             if changed & 1:
@@ -630,3 +637,8 @@ class RcInput:
         r[2] = rates[2].rate_rad_s(s[2])
         sp.roll_angle_rad = s[0] * self.angle_limit_rad
         sp.pitch_angle_rad = s[1] * self.angle_limit_rad
+
+
+update_python = RcInput.update
+if HAS_ACCEL:
+    RcInput.update = _viper.update
