@@ -305,6 +305,67 @@ def test_output_encoder_write_gives_todays_words_and_clamp_counts():
                     assert list(codec.words[:n]) == list(want[:n])
 
 
+def test_the_viper_write_gives_the_python_writes_words_and_counts():
+    # OutputEncoder.write on MicroPython is the viper generated from it (accel/output.py): on two codecs alike
+    # (boot commands queued, so their repeats go out over the stopped passes), the same words, clamp counts,
+    # writes and command state as the Python write
+    from hoverfly.core.stages import output as outmod
+
+    if not IS_MICROPYTHON:
+        assert OutputEncoder.write is outmod.write_python
+        return
+    from hoverfly.accel import output as out_viper
+
+    assert OutputEncoder.write is out_viper.write
+    assert out_viper.FLOAT32 == 0
+    rnd = Lcg(61)
+    for order, n, bidir, rev in ((0, 4, 0, 0), (2143, 4, 1, 5), (321, 3, 0, 2), (0, 8, 1, 0)):
+        codecs = []
+        for _ in range(2):
+            c = OutputEncoder()
+            c.configure(_params(motor_order=order, dshot_bidir=bidir, motor_reversed=rev), n, 0, 0)
+            codecs.append(c)
+        a, b = codecs
+        t = 0
+        for k in range(300):
+            m = _commands(rnd, n, k) if k % 4 else array("f", [0.0] * n)  # stopped: commands go out
+            t += 1000
+            outmod.write_python(a, m, n, t)
+            b.write(m, n, t)
+            assert list(a.words) == list(b.words), (order, k, list(m))
+            assert (a.clamped, a.writes, a.failsafe) == (b.clamped, b.writes, b.failsafe), (order, k)
+            assert a.commands.pending == b.commands.pending and a.commands.sent == b.commands.sent, (order, k)
+        assert a.commands.sent > 0  # the boot commands went out on both
+
+
+def test_the_viper_write_rounds_as_a_float32_port_does():
+    # Set, FLOAT32 makes the write's products round as on a float32 port (a Pico), as the planned encode's
+    # viper twin does (its own float32 rounding is checked above against a float32 model)
+    if not IS_MICROPYTHON:
+        return
+    from hoverfly.accel import output as out_viper
+
+    rnd = Lcg(67)
+    out_viper.FLOAT32 = 1
+    dshot_viper.FLOAT32 = 1
+    try:
+        for order, n, bidir in ((0, 4, 0), (2143, 4, 1), (0, 8, 1)):
+            c = OutputEncoder()
+            c.configure(_params(motor_order=order, dshot_bidir=bidir), n, 0, 0)
+            c.commands.clear()
+            want = array("H", [0] * 8)
+            for k in range(300):
+                m = _commands(rnd, n, k)
+                before = c.clamped
+                r = dshot_viper.encode_planned(m, n, c._plan, want)
+                c.write(m, n, 1000 * k)
+                assert list(c.words) == list(want), (order, k, list(m))
+                assert c.clamped - before == r >> 8, (order, k)
+    finally:
+        out_viper.FLOAT32 = 0
+        dshot_viper.FLOAT32 = 0
+
+
 def test_output_encoder_write_allocates_nothing_on_micropython():
     codec = OutputEncoder()
     codec.configure(_params(dshot_bidir=1, motor_order=2143), 4, 0, 0)

@@ -47,7 +47,6 @@ from hoverfly.protocols.dshot import (
     ErpmDecoder,
     dshot_frame,
     encode_planned,
-    encode_planned_f32,
 )
 
 # The `motor_protocol` choices: dshot150, dshot300, dshot600, dshot1200, oneshot125, oneshot42,
@@ -58,13 +57,9 @@ _ANALOG = (analog.ONESHOT125, analog.ONESHOT42, analog.MULTISHOT, analog.PWM)
 MAX_SERVOS = 4  # servo lines a board drives (the servo mixer's signals hold 8: core/stages/servos.py)
 _INV16 = 1.0 / 65536.0
 
-# OutputEncoder.write's encode for a motor_out it has seen: the viper twin on the float32 bits, or
-# (no viper) the Python twin, which takes any sequence.
-_encode_seen = encode_planned_f32 if encode_planned_f32 is not None else encode_planned
-
 _viper = None
 if IS_MICROPYTHON:
-    try:  # generated from motors_fixed below by hoverfly.fastgen; absent, or a port without viper: the Python runs
+    try:  # generated from motors_fixed and encode_words below by hoverfly.fastgen; absent, or no viper: the Python
         from hoverfly.accel import output as _viper
     except (ImportError, SyntaxError, NameError, ValueError, TypeError):  # TypeError: ViperTypeError
         pass
@@ -95,6 +90,14 @@ def motors_fixed(norm, out, plan):
             v = int(m * 65536.0)
         out[i] = (idle + ((span * v + 8192) >> 14)) * _INV16
     return clamped
+
+
+# fastpass: OutputEncoder.write motor_out:f@ plan:i@ words:H@
+def encode_words(motor_out, count, plan, words):
+    """OutputEncoder.write's DShot encode (protocols/dshot.py encode_planned): returns its moving | clamped << 8.
+    The viper write generated from the method and this (accel/output.py `write`) reads motor_out's float32 bits
+    and makes no float; tests/portable/test_output.py holds the two writes equal."""
+    return encode_planned(motor_out, count, plan, words)
 
 
 def protocol_index(name):
@@ -434,26 +437,36 @@ class OutputEncoder:
 
     # ---------------------------------------------------------------- the pass
     def write(self, motor_out, count, now_us):
-        """Encode motor_out[0..count-1] (0 = stop, otherwise idle..1) onto the lines; a fresh command."""
-        # Few locals: a MicroPython function whose locals and stack pass 11 slots gets its frame from
-        # the heap on every call (allocated and freed: no bytes remain, the allocator's work does;
-        # tests/test_perf_rules.py holds the pass's functions to it).
-        # One call encodes every motor onto its line (DshotEncoder.plan); on MicroPython the viper twin
-        # reads an array('f')'s float32 bits and makes no float (_f32: one seen before, DShot only).
-        if motor_out is self._f32 or (self.dshot and self._takes_bits(motor_out)):
-            r = _encode_seen(motor_out, count, self._plan, self.words)
-        elif self.dshot:
+        """Encode motor_out[0..count-1] (0 = stop, otherwise idle..1) onto the lines; a fresh command. On
+        MicroPython the viper generated from this method and encode_words (accel/output.py `write`) stands
+        in for it; `write_python` keeps it."""
+        # One call encodes every motor onto its line (DshotEncoder.plan), from an array('f') seen before
+        # (_f32: DShot only); anything else takes _write_other.
+        if motor_out is not self._f32 and not (self.dshot and self._takes_bits(motor_out)):
+            self._write_other(motor_out, count, now_us)
+            return
+        r = encode_words(motor_out, count, self._plan, self.words)
+        if r > 0xFF:
+            self._count_clamped(r >> 8)
+        # DShot commands go out only while every motor is stopped; a spinning motor drops them.
+        # Idle (the flight's every pass) there is nothing to send or abort: not even the call.
+        if self.commands.pending:
+            self.commands.apply(now_us, r & 0xFF != 0, self.words)
+        self._last_us = now_us
+        self.failsafe = False
+        self.writes += 1
+
+    def _write_other(self, motor_out, count, now_us):
+        """write() for what its encode does not read: an analog protocol's pulse widths, or DShot from a
+        list or an array('d') (the Python encode; the same words and counts as write's)."""
+        if self.dshot:
             r = encode_planned(motor_out, count, self._plan, self.words)
-        else:
-            r = -1
-            self._write_analog(motor_out, count)
-        if r >= 0:
             if r > 0xFF:
                 self._count_clamped(r >> 8)
-            # DShot commands go out only while every motor is stopped; a spinning motor drops them.
-            # Idle (the flight's every pass) there is nothing to send or abort: not even the call.
             if self.commands.pending:
                 self.commands.apply(now_us, r & 0xFF != 0, self.words)
+        else:
+            self._write_analog(motor_out, count)
         self._last_us = now_us
         self.failsafe = False
         self.writes += 1
@@ -481,10 +494,10 @@ class OutputEncoder:
             p[lines[m]] = lo + span * t
 
     def _takes_bits(self, motor_out):
-        """True (and remembered) when the viper encode may read motor_out's bits: an array of 4-byte
+        """True (and remembered) when the viper write may read motor_out's bits: an array of 4-byte
         floats. Anything else (a list, array('d')) takes the Python encode. Without viper the Python
         encode takes anything, so the first motor_out is remembered at once."""
-        if encode_planned_f32 is None:
+        if _viper is None:
             self._f32 = motor_out
             return True
         if type(motor_out) is not array:
@@ -527,3 +540,8 @@ class OutputEncoder:
             self._set_disarmed()
             return True
         return False
+
+
+write_python = OutputEncoder.write
+if HAS_ACCEL:
+    OutputEncoder.write = _viper.write
