@@ -59,3 +59,27 @@ def test_random_chunks_of_a_damaged_stream_decode_alike():
         i += n
     slow, fast = _both(chunks)
     assert fast == slow
+
+
+def test_take_frame_counts_a_whole_good_frame_as_feed_does_and_leaves_its_payload_where_it_is():
+    out = B.frame(B.OUT, bytes(range(40)))
+    slow = B.BridgeDecoder(depth=4)
+    slow.feed(out)
+    taker = B.BridgeDecoder(depth=4)
+    assert taker.take_frame(out) == B.OUT
+    assert (taker.frames, taker.bytes, taker.pending()) == (slow.frames, slow.bytes, 0)
+    assert out[B.HEADER:len(out) - 1] == bytes(range(40))
+
+
+def test_take_frame_takes_nothing_that_is_not_exactly_one_good_frame():
+    good = bytearray(B.frame(B.OUT, bytes(range(40))))
+    bad_crc = bytearray(good)
+    bad_crc[-1] ^= 0x55
+    for chunk in (bad_crc, good + b"\x00", good[:-3], b"\x00" + good, good * 2):
+        dec = B.BridgeDecoder(depth=4)
+        assert dec.take_frame(bytes(chunk)) == -1
+        assert (dec.frames, dec.bytes, dec.crc_errors) == (0, 0, 0)
+    # nor while a frame is half received: the chunk belongs after it
+    dec = B.BridgeDecoder(depth=4)
+    dec.feed(bytes(good[:10]))
+    assert dec.take_frame(bytes(good)) == -1

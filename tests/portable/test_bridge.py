@@ -157,3 +157,97 @@ def test_step_flags_carry_the_open_configuration_sessions():
     flags = B.STEP_IMU_FRESH | ((2 | 4) & B.STEP_SESSION_MASK) << B.STEP_SESSION_SHIFT
     assert flags & B.STEP_IMU_FRESH
     assert (flags >> B.STEP_SESSION_SHIFT) & B.STEP_SESSION_MASK == 6
+
+
+# ------------------------------------------- the firmware end moves the frame's floats exactly
+# On a little-endian MicroPython the firmware copies float32 bytes (boards/bridge_fw.py RAW_FLOATS); on CPython
+# it unpacks and packs them. Either way the board, the flight and the answer see the float32 the host sent.
+_INPUTS = (0.1, -0.2, 0.3, 0.4, -0.5, -9.81, 0.9, 0.1, -0.2, 0.3, 16.1, 2.7)  # gyro, accel, q, V, A
+
+
+def _f32(values):
+    from array import array
+
+    return list(array("f", values))
+
+
+def _booted():
+    from hoverfly.boards.bridge_fw import Firmware
+
+    fw = Firmware()
+    fw.handle(B.HELLO, B.VERSION.encode(), len(B.VERSION))
+    fw.handle(B.BOOT, bytes(4), 4)
+    return fw
+
+
+def _step(fw, sim_us, flags, values, rx=b""):
+    buf = bytearray(B.MAX_PAYLOAD + B.OVERHEAD)
+    pack_into(B.STEP_FMT, buf, B.HEADER, sim_us, flags, *values)
+    p = B.HEADER + B.STEP_SIZE
+    for i in range(len(rx)):
+        buf[p + i] = rx[i]
+    n = B.STEP_SIZE + len(rx)
+    B.finish(buf, B.STEP, n)
+    total = fw.handle(B.STEP, buf[B.HEADER:B.HEADER + n], n)
+    d = B.BridgeDecoder()
+    assert d.feed(fw.out, total) == 1 and d.pop() == B.OUT
+    return d
+
+
+def test_a_step_gives_the_board_the_float32_values_the_host_sent():
+    fw = _booted()
+    _step(fw, 1000, B.STEP_IMU_FRESH, _INPUTS)
+    assert list(fw.board.inputs) == _f32(_INPUTS)
+    assert fw.board.sim_us == 1000
+    # a step without a new IMU sample leaves the last one and takes the rest
+    later = (9.0, 9.0, 9.0, 9.0, 9.0, 9.0, 0.5, 0.5, 0.5, 0.5, 15.9, 3.1)
+    _step(fw, 2000, 0, later)
+    assert list(fw.board.inputs) == _f32(_INPUTS[:6] + later[6:])
+
+
+def test_the_answer_carries_the_motors_and_attitude_the_flight_holds_as_float32_bytes():
+    fw = _booted()
+    for i in range(5):
+        d = _step(fw, 1000 * (i + 1), B.STEP_IMU_FRESH, _INPUTS)
+    p = d.payload
+    n = p[1]
+    m = p[2]
+    at = B.OUT_HEAD_SIZE
+    board = fw.board
+    expect = bytearray(4 * (n + m + 4))
+    for i in range(n):
+        pack_into("<f", expect, 4 * i, board.motor_out[i])
+    q = fw.flight.signals.attitude.q
+    for i in range(4):
+        pack_into("<f", expect, 4 * (n + m + i), q[i])
+    assert bytes(p[at:at + len(expect)]) == bytes(expect)
+    assert unpack_from("<f", p, at + 4 * (n + m))[0] == q[0]
+
+
+def test_the_bridge_board_hands_its_sample_and_motors_over_unchanged():
+    from array import array
+
+    from hoverfly.boards.bridge_fw import BridgeBoard
+
+    board = BridgeBoard()
+    for i in range(12):
+        board.inputs[i] = _INPUTS[i]
+    gyro = array("f", [0.0] * 3)
+    accel = array("f", [0.0] * 3)
+    assert not board.read_imu(gyro, accel)  # nothing new yet
+    board.imu_fresh = True
+    assert board.read_imu(gyro, accel) and not board.imu_fresh
+    assert list(gyro) + list(accel) == _f32(_INPUTS[:6])
+    q = array("f", [0.0] * 4)
+    assert board.read_attitude(q) and list(q) == _f32(_INPUTS[6:10])
+    motors = array("f", [0.25, 0.5, 0.75, 1.0, 0.0, 0.0, 0.0, 0.0])
+    board.write_motors(motors, 4)
+    assert board.motor_count == 4 and list(board.motor_out[:4]) == [0.25, 0.5, 0.75, 1.0]
+
+    class Power:
+        battery_v = 0.0
+        current_a = 0.0
+
+    power = Power()
+    board.read_battery(power)
+    assert [power.battery_v, power.current_a] == _f32(_INPUTS[10:])

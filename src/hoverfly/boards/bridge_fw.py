@@ -24,17 +24,30 @@ from hoverfly.compat import (
     ticks_us,
 )
 from hoverfly.core.board import BOOT_TICKS_US, SampledBoard
+from hoverfly.core.scheduler import HeapWatch
 from hoverfly.protocols import bridge as B
 
-# Collect in the slack between answering a step and the next one arriving, and only when
-# the free heap drops below this: never inside the flight pass.
-GC_FREE_BYTES = 32768
-# What one STEP may allocate at most, with room: the pass's boxed floats and the frame's values
-# (1.3 KB on average, 3.7 KB at most over a 6 s hover on the unix VM: bench/bridge_firmware.py, "alloc_bytes").
-# gc.mem_free() walks the heap's whole allocation table (about 85 us on the VM's 768 KB heap, five
-# times the flight pass), so the free heap is read again only once the steps since the last reading
-# could have used up what stood above GC_FREE_BYTES.
-STEP_ALLOC_MAX = 4096
+# Garbage is collected in the slack between answering a step and the next one arriving, never inside the
+# flight pass, as the rp2 main loop does it: core/scheduler.py HeapWatch, once half of what the last
+# collection left free is used up. gc.mem_free() walks the heap's whole allocation table (about 100 us on
+# the VM's 768 KB heap, more than the flight pass), so the watch looks at the heap only as often as the
+# steps' measured allocation makes it worth it.
+GC_FREE_FRACTION = 2
+
+# The frame's floats are little-endian float32, as the board's float arrays hold them on a little-endian
+# MicroPython (the Pico, the unix VM): there they are moved as bytes, struct's "Ns" copying n bytes from one
+# buffer into another (an array's memory too), so a step makes no float object, and no garbage for the heap
+# care to collect. CPython, whose "s" takes only bytes objects, and a big-endian port unpack and pack them:
+# the same float32 values either way.
+RAW_FLOATS = IS_MICROPYTHON and sys.byteorder == "little"
+_BYTES = ("0s", "4s", "8s", "12s", "16s", "20s", "24s", "28s", "32s")  # _BYTES[k]: k float32s as bytes
+# Where the STEP payload's floats sit (protocols/bridge.py STEP_FMT): gyro and accel, then the quaternion
+# and the battery's volts and amps.
+_STEP_IMU_AT = 5
+_STEP_REST_AT = 29
+RX_SIZE = B.MAX_PAYLOAD + B.OVERHEAD  # the receive buffer: one frame
+END = -1  # FrameReader.next: the stream ended
+BAD = -2  # FrameReader.next: a frame failed its CRC
 
 
 class BridgeBoard(SampledBoard):
@@ -44,9 +57,15 @@ class BridgeBoard(SampledBoard):
 
     def __init__(self):
         SampledBoard.__init__(self)
-        self.battery_v = 0.0
-        self.current_a = 0.0
+        # What a STEP frame brings, as its payload lays it out: gyro xyz, accel xyz (STEP_IMU_FRESH only),
+        # then the quaternion, battery V and A; gyro, accel and quaternion are views of it.
+        inputs = self.inputs = array("f", [0.0, 0.0, 0.0, 0.0, 0.0, -9.80665, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+        view = memoryview(inputs)
+        self.gyro = view[0:3]
+        self.accel = view[3:6]
+        self.quaternion = view[6:10]
         self.rx_buf = bytearray(B.MAX_PAYLOAD)
+        self._rx_view = memoryview(self.rx_buf)
         self.rx_len = 0
         self.motor_out = array("f", [0.0] * 8)
         self.motor_count = 0
@@ -63,14 +82,30 @@ class BridgeBoard(SampledBoard):
         self.servo_count = 0
         self.set_led(False)
 
+    def read_imu(self, gyro_rad_s, accel_m_s2):
+        if not self.imu_fresh:
+            return False
+        if RAW_FLOATS:
+            pack_into("12s", gyro_rad_s, 0, self.gyro)
+            pack_into("12s", accel_m_s2, 0, self.accel)
+        else:
+            SampledBoard.read_imu(self, gyro_rad_s, accel_m_s2)
+        self.imu_fresh = False
+        return True
+
+    def read_attitude(self, q_out):
+        if RAW_FLOATS:
+            pack_into("16s", q_out, 0, self.quaternion)
+            return True
+        return SampledBoard.read_attitude(self, q_out)
+
     def read_rx(self, buf):
         """The receiver bytes of this step into buf; their count (0 when none)."""
         n = self.rx_len
         if n > len(buf):
             n = len(buf)
-        src = self.rx_buf
-        for i in range(n):
-            buf[i] = src[i]
+        if n:
+            buf[0:n] = self._rx_view[0:n]
         self.rx_len = 0
         return n
 
@@ -78,8 +113,11 @@ class BridgeBoard(SampledBoard):
         m = self.motor_out
         if count > len(m):
             count = len(m)
-        for i in range(count):
-            m[i] = motor_out[i]
+        if RAW_FLOATS:
+            pack_into(_BYTES[count], m, 0, motor_out)
+        else:
+            for i in range(count):
+                m[i] = motor_out[i]
         self.motor_count = count
 
     def write_servos(self, servo_us, count):
@@ -91,8 +129,8 @@ class BridgeBoard(SampledBoard):
         self.servo_count = count
 
     def read_battery(self, signals):
-        signals.battery_v = self.battery_v
-        signals.current_a = self.current_a
+        signals.battery_v = self.inputs[10]
+        signals.current_a = self.inputs[11]
 
     def set_led(self, on):
         self.led = on
@@ -107,22 +145,38 @@ class Firmware:
         self.board = board if board is not None else BridgeBoard()
         self.params = Params()
         self.flight = None
+        # The frame being answered sits at rx[0:] (serve's FrameReader reads into it), its payload in `body`.
+        self.rx = bytearray(RX_SIZE)
+        view = memoryview(self.rx)
+        self.body = view[B.HEADER:]
+        at = B.HEADER + _STEP_IMU_AT
+        self._step_imu = view[at:at + 24]
+        at = B.HEADER + _STEP_REST_AT
+        self._step_rest = view[at:at + 24]
         self.out = bytearray(B.MAX_PAYLOAD + B.OVERHEAD)
         self.rc_channels_us = array("H", [0] * B.MAX_RC_CHANNELS)
         self.msp_rc_frames = 0
         self.steps = 0
         self.gc_runs = 0
         self._ev_seen = 0
-        self._heap_check_in = 0  # steps until slack() reads the free heap again
+        self.heap = HeapWatch(mem_free, GC_FREE_FRACTION) if IS_MICROPYTHON else None
+        self._collect = True  # slack() collects and starts the watch's cycle afresh
+        self.reader = None  # serve()'s FrameReader: its counts
         self.done = False
 
     def handle(self, kind, payload, length):
-        """Answer one frame: the number of bytes of the reply now in self.out."""
+        """Answer one frame whose payload is payload[0:length]: the number of bytes of the reply now in
+        self.out. serve() hands over `body`, where the frame already is; any other payload is copied there."""
+        if payload is not self.body:
+            if length < 0 or length > B.MAX_PAYLOAD or length > len(payload):
+                return self._error("bridge payload of %d bytes" % length)
+            self.body[0:length] = payload[0:length]
+            payload = self.body
         if kind == B.STEP:
             return self.step(payload, length)
-        self._heap_check_in = 0  # a configuration frame may allocate a lot: the next slack() looks
-        if kind == B.MSP_RC:
+        if kind == B.MSP_RC:  # the companion's RC: like a step's, in the watch's measured rate
             return self.msp_rc(payload, length)
+        self._collect = True  # a configuration frame may allocate a lot (BOOT builds the flight)
         if kind == B.HELLO:
             return self.hello(bytes(payload[:length]).decode())
         if kind == B.PARAMS:
@@ -173,41 +227,36 @@ class Firmware:
         return ""
 
     def step(self, payload, length):
+        """A STEP whose payload is in `body` (handle puts it there): the inputs to the board, one flight pass."""
         flight = self.flight
         if flight is None:
             return self._error("STEP before BOOT")
         board = self.board
         if length < B.STEP_SIZE:
             return self._error("short STEP frame (%d bytes)" % length)
-        v = unpack_from(B.STEP_FMT, payload, 0)
-        board.sim_us = v[0]
-        flight.config_session = (v[1] >> B.STEP_SESSION_SHIFT) & B.STEP_SESSION_MASK
-        if v[1] & B.STEP_IMU_FRESH:
-            g = board.gyro
-            a = board.accel
-            g[0] = v[2]
-            g[1] = v[3]
-            g[2] = v[4]
-            a[0] = v[5]
-            a[1] = v[6]
-            a[2] = v[7]
+        flags = payload[4]
+        board.sim_us = payload[0] | (payload[1] << 8) | (payload[2] << 16) | (payload[3] << 24)
+        flight.config_session = (flags >> B.STEP_SESSION_SHIFT) & B.STEP_SESSION_MASK
+        inputs = board.inputs
+        if RAW_FLOATS:
+            if flags & B.STEP_IMU_FRESH:
+                pack_into("24s", inputs, 0, self._step_imu)
+            pack_into("24s", inputs, 24, self._step_rest)
+        else:
+            v = unpack_from(B.STEP_FMT, payload, 0)
+            first = 0 if flags & B.STEP_IMU_FRESH else 6
+            for i in range(first, 12):
+                inputs[i] = v[2 + i]
+        if flags & B.STEP_IMU_FRESH:
             board.imu_fresh = True
-        q = board.quaternion
-        q[0] = v[8]
-        q[1] = v[9]
-        q[2] = v[10]
-        q[3] = v[11]
-        board.battery_v = v[12]
-        board.current_a = v[13]
         n_rx = length - B.STEP_SIZE
         if n_rx > 0:
-            dst = board.rx_buf
             k = board.rx_len
-            for i in range(n_rx):
-                if k < len(dst):
-                    dst[k] = payload[B.STEP_SIZE + i]
-                    k += 1
-            board.rx_len = k
+            room = len(board.rx_buf) - k
+            if n_rx > room:
+                n_rx = room
+            board.rx_buf[k:k + n_rx] = payload[B.STEP_SIZE:B.STEP_SIZE + n_rx]
+            board.rx_len = k + n_rx
         t0 = ticks_us()
         flight.step(board.now_us())
         pass_us = ticks_diff(ticks_us(), t0)
@@ -271,18 +320,28 @@ class Firmware:
         ap = flight.autopilot
         pack_into(B.OUT_HEAD_FMT, out, p, flags, n, m, pass_us, ap.state, ap.privilege())
         p += B.OUT_HEAD_SIZE
-        mo = board.motor_out
-        for i in range(n):
-            pack_into("<f", out, p, mo[i])
-            p += 4
-        so = board.servo_us
-        for i in range(m):
-            pack_into("<f", out, p, so[i])
-            p += 4
         q = flight.signals.attitude.q
-        for i in range(4):
-            pack_into("<f", out, p, q[i])
-            p += 4
+        if RAW_FLOATS:
+            if n:
+                pack_into(_BYTES[n], out, p, board.motor_out)
+                p += 4 * n
+            if m:
+                pack_into(_BYTES[m], out, p, board.servo_us)
+                p += 4 * m
+            pack_into("16s", out, p, q)
+            p += 16
+        else:
+            mo = board.motor_out
+            for i in range(n):
+                pack_into("<f", out, p, mo[i])
+                p += 4
+            so = board.servo_us
+            for i in range(m):
+                pack_into("<f", out, p, so[i])
+                p += 4
+            for i in range(4):
+                pack_into("<f", out, p, q[i])
+                p += 4
         # Events since the last answer, at most MAX_EVENTS (the rest go with the next step).
         log = flight.events
         waiting = log.count - self._ev_seen
@@ -312,59 +371,126 @@ class Firmware:
 
     def slack(self):
         """Between steps: the host is busy with the physics, the flight pass is not running."""
-        if not IS_MICROPYTHON:
+        heap = self.heap
+        if heap is None:
             return
-        self._heap_check_in -= 1
-        if self._heap_check_in > 0:
+        if self._collect:
+            self._collect = False
+        elif not heap.due() or not heap.need():
             return
-        free = mem_free()
-        if free < GC_FREE_BYTES:
-            collect_garbage()
-            self.gc_runs += 1
-            free = mem_free()
-        self._heap_check_in = (free - GC_FREE_BYTES) // STEP_ALLOC_MAX
+        collect_garbage()
+        self.gc_runs += 1
+        heap.collected()
 
 
-def serve(stream_in, stream_out, firmware=None):
-    """Answer frames from stream_in on stream_out until QUIT or end of stream; exit status."""
+class FrameReader:
+    """Frames the bridge stream into one buffer (`buf`, a Firmware's rx): each good frame at its start, its
+    payload length in `length`.
+
+    A read asks only for what the frame still lacks, its header and then the rest its length gives: a
+    stream's readinto (MicroPython's on a pipe or a Pico's USB, CPython's buffered one) waits until all it
+    asked for has come, so asking past the frame would wait for the next one, which the host sends only
+    after this one's answer. Resynchronises as BridgeDecoder does: garbage before a sync byte, an unknown
+    kind and a length past MAX_PAYLOAD are skipped and counted; a frame that fails its CRC is skipped whole
+    and reported (BAD)."""
+
+    def __init__(self, readinto, buf):
+        self.readinto = readinto
+        self.buf = buf
+        self.body = memoryview(buf)[B.HEADER:]
+        self.have = 0  # bytes in buf
+        self.taken = 0  # bytes of the frame handed out last, dropped by the next call
+        self.length = 0
+        self.frames = 0
+        self.crc_errors = 0
+        self.length_errors = 0
+        self.kind_errors = 0
+        self.resyncs = 0
+
+    def next(self):
+        """The kind of the next frame, at buf[0:length + OVERHEAD]: BAD when it failed its CRC, END when the
+        stream ended first."""
+        if self.taken:
+            self._drop(self.taken)
+            self.taken = 0
+        buf = self.buf
+        while True:
+            if self.have < B.HEADER and not self._fill(B.HEADER):
+                return END
+            if buf[0] != B.SYNC:
+                i = 1
+                while i < self.have and buf[i] != B.SYNC:
+                    i += 1
+                self.resyncs += i
+                self._drop(i)
+                continue
+            # As the decoder: an unknown kind or a length past MAX_PAYLOAD is no frame; the hunt goes on
+            # from the byte after the sync.
+            if buf[1] not in B.KINDS:
+                self.kind_errors += 1
+                self._drop(1)
+                continue
+            n = buf[2] | (buf[3] << 8)
+            if n > B.MAX_PAYLOAD:
+                self.length_errors += 1
+                self._drop(1)
+                continue
+            total = n + B.OVERHEAD
+            if self.have < total and not self._fill(total):
+                return END
+            self.taken = total
+            self.length = n
+            if not B.frame_crc_ok(buf, n):
+                self.crc_errors += 1
+                return BAD
+            self.frames += 1
+            return buf[1]
+
+    def _fill(self, need):
+        """Read until buf holds `need` bytes; False at the end of the stream."""
+        readinto = self.readinto
+        while self.have < need:
+            have = self.have
+            ask = need - have
+            if IS_MICROPYTHON and have == 0:
+                k = readinto(self.buf, ask)
+            elif IS_MICROPYTHON and have == B.HEADER:  # the usual rest of a frame, into a view made once
+                k = readinto(self.body, ask)
+            else:
+                k = readinto(memoryview(self.buf)[have:have + ask])
+            if not k:
+                return False
+            self.have = have + k
+        return True
+
+    def _drop(self, n):
+        """Forget the first n bytes of buf; what follows them moves to its start."""
+        have = self.have
+        if n >= have:
+            self.have = 0
+            return
+        self.buf[0:have - n] = self.buf[n:have]
+        self.have = have - n
+
+
+def serve(stream_in, stream_out, firmware=None, flush=True):
+    """Answer frames from stream_in on stream_out until QUIT or end of stream; exit status.
+    flush: stream_out.flush() after each answer, where it has one (flush=False: its writes are unbuffered)."""
     fw = firmware if firmware is not None else Firmware()
-    dec = B.BridgeDecoder(depth=2)
-    one = bytearray(1)
-    head = bytearray(B.HEADER - 1)
-    body = bytearray(B.MAX_PAYLOAD + 1)
-    readinto = stream_in.readinto
+    reader = FrameReader(stream_in.readinto, fw.rx)
+    fw.reader = reader
+    body = fw.body
     write = stream_out.write
-    flush = getattr(stream_out, "flush", None)
+    flush = getattr(stream_out, "flush", None) if flush else None
     while not fw.done:
-        # Hunt for the sync byte, then read exactly one frame: a pipe or a USB CDC port
-        # hands over whatever arrived, so never ask for more than the frame holds.
-        if not _read_exact(readinto, one, 1):
+        kind = reader.next()
+        if kind == END:
             return 0
-        if one[0] != B.SYNC:
-            dec.resyncs += 1
-            continue
-        if not _read_exact(readinto, head, B.HEADER - 1):
-            return 0
-        # Checked here as the decoder checks them, so both frame the stream alike: an unknown
-        # kind or a length past MAX_PAYLOAD is no frame, and hunting goes on.
-        if head[0] not in B.KINDS:
-            dec.kind_errors += 1
-            continue
-        n = head[1] | (head[2] << 8)
-        if n > B.MAX_PAYLOAD:
-            dec.length_errors += 1
-            continue
-        if not _read_exact(readinto, body, n + 1):
-            return 0
-        # Framed by its lengths already: only the CRC is left to check (the decoder's byte-wise
-        # hunt would walk every byte of the frame a second time, on every step).
-        if not B.frame_crc_ok(head, body, n):
-            dec.crc_errors += 1
-            total = fw._error("bridge frame failed its CRC (%d so far)" % dec.crc_errors)
+        if kind == BAD:
+            total = fw._error("bridge frame failed its CRC (%d so far)" % reader.crc_errors)
         else:
-            dec.frames += 1
             try:
-                total = fw.handle(head[0], body, n)
+                total = fw.handle(kind, body, reader.length)
             except Exception as exc:  # the firmware failed: say why, then stop
                 print_exception(exc)
                 total = fw._error("%s: %s" % (type(exc).__name__, exc))
@@ -379,19 +505,6 @@ def serve(stream_in, stream_out, firmware=None):
     return 0
 
 
-def _read_exact(readinto, buf, n):
-    got = 0
-    while got < n:
-        if got == 0:
-            k = readinto(buf, n) if IS_MICROPYTHON else readinto(memoryview(buf)[:n])
-        else:
-            k = readinto(memoryview(buf)[got:n])
-        if not k:
-            return False
-        got += k
-    return True
-
-
 def main():
     if IS_MICROPYTHON:
         try:
@@ -400,7 +513,9 @@ def main():
             micropython.kbd_intr(-1)  # a 0x03 byte in a frame must not raise KeyboardInterrupt
         except (ImportError, AttributeError):
             pass
-    return serve(sys.stdin.buffer, sys.stdout.buffer)
+    # MicroPython's stdout writes straight to its file descriptor, and its flush is an fsync, which a pipe
+    # refuses: a system call a step for nothing. CPython's is buffered.
+    return serve(sys.stdin.buffer, sys.stdout.buffer, flush=not IS_MICROPYTHON)
 
 
 if __name__ == "__main__":

@@ -38,8 +38,8 @@ Kinds and payloads:
 
 from struct import pack_into
 
-from hoverfly.compat import const
-from hoverfly.protocols.crc import CRC8_DVB_S2_TABLE
+from hoverfly.compat import IS_MICROPYTHON, const
+from hoverfly.protocols.crc import CRC8_DVB_S2_TABLE, crc8_dvb_s2_span
 
 SYNC = const(0xB5)
 HEADER = const(4)  # sync, kind, len_lo, len_hi
@@ -87,25 +87,24 @@ RC_ANSWER_SIZE = const(3)
 
 _CRC = CRC8_DVB_S2_TABLE
 
+# crc8(buf, start, end): CRC-8/DVB-S2 of buf[start:end] (end within buf), allocating nothing. Every frame both
+# ends send or take is checked with it, so on MicroPython it is the viper twin generated from crc.py's Python
+# (accel/crc.py, as protocols/crsf.py uses it: the byte loop is most of a frame's cost in bytecode); the Python
+# everywhere else or where viper is missing. tests/portable/test_viper_twins.py holds the two equal.
+crc8 = crc8_dvb_s2_span
+if IS_MICROPYTHON:
+    try:
+        from hoverfly.accel.crc import crc8_dvb_s2_span as crc8
+    except (ImportError, SyntaxError, NameError, ValueError, TypeError):  # TypeError: ViperTypeError
+        pass
 
-def crc8(buf, start, end):
-    """CRC-8/DVB-S2 of buf[start:end] (table driven, allocates nothing)."""
-    t = _CRC
-    c = 0
-    for i in range(start, end):
-        c = t[c ^ buf[i]]
-    return c
 
-
-def frame_crc_ok(head, body, n):
-    """True if body[n] is the CRC of a frame read in two parts: head = kind, len_lo, len_hi and
-    body = the n payload bytes, then the CRC. For a reader that has already framed the stream by
-    its lengths (the firmware's serve loop): the CRC alone, without the decoder's byte-wise hunt."""
-    t = _CRC
-    c = t[t[t[head[0]] ^ head[1]] ^ head[2]]
-    for i in range(n):
-        c = t[c ^ body[i]]
-    return c == body[n]
+def frame_crc_ok(buf, n):
+    """True if the frame at buf[0:n + OVERHEAD] (n payload bytes, buf holding at least that much) ends in
+    the CRC of its kind, length and payload. For a reader that has already framed the stream by its
+    lengths (the firmware's serve loop): the CRC alone, without the decoder's byte-wise hunt."""
+    end = HEADER + n
+    return crc8(buf, 1, end) == buf[end]
 
 
 def finish(buf, kind, payload_len):
@@ -300,23 +299,41 @@ class BridgeDecoder:
         self._state = state
         return done
 
-    def feed_frame(self, data):
-        """feed(data) for a chunk that is likely one whole frame (a pipe's or port's read of the answer
-        to a request): while nothing is half-received or waiting, a chunk that is exactly one good
-        frame is checked by its length and CRC and queued in one copy, without the byte-wise hunt.
-        Anything else goes through feed(), so the result and the counts are feed()'s."""
+    def _whole(self, data):
+        """The payload length when data is exactly one good frame (its length and CRC checked, without the
+        byte-wise hunt) and nothing is half-received or waiting; -1 otherwise."""
         n = len(data)
         if self._state != _HUNT or self._count or n < OVERHEAD or data[0] != SYNC or data[1] not in KINDS:
-            return self.feed(data)
+            return -1
         want = data[2] | (data[3] << 8)
         if want > MAX_PAYLOAD or n != want + OVERHEAD or crc8(data, 1, n - 1) != data[n - 1]:
+            return -1
+        return want
+
+    def feed_frame(self, data):
+        """feed(data) for a chunk that is likely one whole frame (a pipe's or port's read of the answer
+        to a request): when it is exactly one good frame (_whole) it is queued in one copy. Anything else
+        goes through feed(), so the result and the counts are feed()'s."""
+        want = self._whole(data)
+        if want < 0:
             return self.feed(data)
-        self.bytes += n
+        self.bytes += len(data)
         self._rx[0:want] = data[HEADER:HEADER + want]
         self._want = want
         self._kind = data[1]
         self._push()
         return 1
+
+    def take_frame(self, data):
+        """The kind of data when it is exactly one good frame (_whole), counted as feed() counts it but queued
+        nowhere: its payload is read where it is, data[HEADER:len(data) - 1]. -1 when it is anything else,
+        and then nothing is taken or counted (feed it)."""
+        want = self._whole(data)
+        if want < 0:
+            return -1
+        self.bytes += len(data)
+        self.frames += 1
+        return data[1]
 
     def _push(self):
         self.frames += 1
