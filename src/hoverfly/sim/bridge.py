@@ -144,6 +144,7 @@ class PipeTransport:
         self._err = None
         self._fd_in = -1
         self._fd_out = -1
+        self._poll = None
 
     def open(self):
         self._err = tempfile.TemporaryFile()
@@ -154,6 +155,8 @@ class PipeTransport:
             raise UserError("cannot start the firmware (%s): %s" % (self.argv[0], exc)) from None
         self._fd_in = self._proc.stdin.fileno()
         self._fd_out = self._proc.stdout.fileno()
+        self._poll = select.poll()
+        self._poll.register(self._fd_out, select.POLLIN)
 
     def _ended(self):
         return BridgeEnded("the firmware process ended (exit status %s)" % self._proc.poll())
@@ -168,8 +171,7 @@ class PipeTransport:
 
     def read(self, timeout_s):
         """What arrived within timeout_s (b"" when nothing did); BridgeEnded at end of stream."""
-        ready, _, _ = select.select((self._fd_out,), (), (), timeout_s)
-        if not ready:
+        if not self._poll.poll(timeout_s * 1000.0 if timeout_s > 0 else 0):
             return b""
         try:
             data = os.read(self._fd_out, 65536)
@@ -376,7 +378,8 @@ class BridgedFlight:
         self._open = False
         self._dec = B.BridgeDecoder(depth=4)
         self._buf = bytearray(B.MAX_PAYLOAD + B.OVERHEAD)
-        self._rx = bytearray(B.MAX_PAYLOAD - B.STEP_SIZE)
+        # the receiver's bytes go straight into the STEP frame, after its fixed fields
+        self._rx = memoryview(self._buf)[B.HEADER + B.STEP_SIZE:B.HEADER + B.MAX_PAYLOAD]
         self._sent = {}
         self._sent_changed = -1
         self._boot_us = 0
@@ -401,12 +404,13 @@ class BridgedFlight:
             return "MSP RC at t = %.3f s" % (self.board.sim_us * 1e-6)
         return {B.HELLO: "HELLO", B.PARAMS: "PARAMS", B.BOOT: "BOOT"}.get(kind, "frame %d" % kind)
 
-    def _receive(self, sent_kind, timeout_s):
+    def _receive(self, sent_kind, timeout_s, already=0):
         """The kind of the next good frame (its payload in the decoder); fails on ERROR, on
-        silence past timeout_s, and on a stream of bytes that never makes a frame."""
+        silence past timeout_s, and on a stream of bytes that never makes a frame. `already`: bytes
+        of the answer the caller has fed the decoder."""
         dec = self._dec
         if not dec.pending():
-            bytes0 = dec.bytes
+            bytes0 = dec.bytes - already
             end = time.monotonic() + timeout_s
             read = self.transport.read
             while True:
@@ -528,35 +532,52 @@ class BridgedFlight:
         board.imu_fresh = False
         pack_into(B.STEP_FMT, buf, B.HEADER, board.sim_us, flags, g[0], g[1], g[2], a[0], a[1], a[2],
                   q[0], q[1], q[2], q[3], board.battery_v, board.current_a)
-        n = B.STEP_SIZE
-        p = B.HEADER + n
-        k = board.read_rx(self._rx)
-        if k:
-            buf[p:p + k] = memoryview(self._rx)[:k]
-            n += k
+        n = B.STEP_SIZE + board.read_rx(self._rx)
         self._send(B.finish(buf, B.STEP, n))
-        if self._receive(B.STEP, self.transport.step_timeout_s) != B.OUT:
+        # The answer usually comes in one read, exactly one good frame: taken where it lies.
+        timeout_s = self.transport.step_timeout_s
+        data = b""
+        dec = self._dec
+        if not dec.pending():
+            try:
+                data = self.transport.read(timeout_s)
+            except BridgeEnded as exc:
+                self._fail(str(exc))
+            if not data:
+                self._fail(self._silence(B.STEP, timeout_s, 0))
+            kind = dec.take_frame(data)
+            if kind >= 0:
+                self.frames_in += 1
+                self._out(kind, data, B.HEADER, len(data) - B.OVERHEAD)
+                return
+            dec.feed(data)
+        kind = self._receive(B.STEP, timeout_s, len(data))
+        self._out(kind, dec.payload, 0, dec.length)
+
+    def _out(self, kind, p, at, n):
+        """The answer to a STEP, its payload at p[at:at + n]: applied when it is a whole OUT frame."""
+        if kind != B.OUT:
+            if kind == B.ERROR:
+                self._fail("the firmware failed: " + bytes(p[at:at + n]).decode(errors="replace"))
             self._fail("expected an OUT frame to %s" % self._what(B.STEP))
-        bad = self._out_malformed(self._dec)
+        bad = self._out_malformed(p, at, n)
         if bad:
             self._fail(bad)
-        self._apply(self._dec.payload)
+        self._apply(p, at)
 
-    def _out_malformed(self, dec):
-        """Why an OUT frame (its CRC passed) cannot be applied, or None. The payload buffer still
-        holds earlier frames' bytes past dec.length, so a frame shorter than its own counts say
-        would hand stale motor values to the physics; more outputs than the signals hold would raise."""
-        n = dec.length
+    def _out_malformed(self, p, at, n):
+        """Why an OUT frame (its CRC passed) whose payload is p[at:at + n] cannot be applied, or None. A
+        payload buffer holds earlier frames' bytes past n, so a frame shorter than its own counts say would
+        hand stale motor values to the physics; more outputs than the signals hold would raise."""
         if n < B.OUT_HEAD_SIZE:
             return "short OUT frame (%d bytes)" % n
-        p = dec.payload
-        motors = p[1]
-        servos = p[2]
+        motors = p[at + 1]
+        servos = p[at + 2]
         if motors > len(self.signals.motor_out) or servos > len(self.signals.servo_us):
             return "OUT frame with %d motors and %d servos (at most %d and %d)" % (
                 motors, servos, len(self.signals.motor_out), len(self.signals.servo_us))
         k_at = B.OUT_HEAD_SIZE + 4 * (motors + servos + 4)
-        if n < k_at + 1 or n != k_at + 1 + p[k_at] * B.EVENT_SIZE:
+        if n < k_at + 1 or n != k_at + 1 + p[at + k_at] * B.EVENT_SIZE:
             return "OUT frame of %d bytes does not hold what its header says (%d motors, %d servos)" % (
                 n, motors, servos)
         return None
@@ -588,8 +609,8 @@ class BridgedFlight:
         self.rx_ok = bool(flags & B.OUT_RX_OK)
         self.calibration.calibrated = bool(flags & B.OUT_CALIBRATED)
 
-    def _apply(self, p):
-        flags, n, m, pass_us, ap_state, ap_privilege = unpack_from(B.OUT_HEAD_FMT, p, 0)
+    def _apply(self, p, at):
+        flags, n, m, pass_us, ap_state, ap_privilege = unpack_from(B.OUT_HEAD_FMT, p, at)
         self.steps += 1
         self.scheduler.stats[PS_PASSES] += 1
         self.fw_pass_sum_us += pass_us
@@ -598,7 +619,7 @@ class BridgedFlight:
         fmt = self._fmt.get(n + m)
         if fmt is None:
             fmt = self._fmt[n + m] = "<%df" % (n + m + 4)
-        vals = unpack_from(fmt, p, B.OUT_HEAD_SIZE)
+        vals = unpack_from(fmt, p, at + B.OUT_HEAD_SIZE)
         s = self.signals
         out = s.motor_out
         for i in range(n):
@@ -621,7 +642,7 @@ class BridgedFlight:
         self._flags(flags)
         self.autopilot.state = ap_state
         self.autopilot.privilege_bits = ap_privilege
-        k_at = B.OUT_HEAD_SIZE + 4 * (n + m + 4)
+        k_at = at + B.OUT_HEAD_SIZE + 4 * (n + m + 4)
         k = p[k_at]
         pos = k_at + 1
         for _ in range(k):
