@@ -9,7 +9,8 @@ wake-ups) to take the firmware's own costs apart. Prints one JSON object:
   (host_us: pack, CRC, decode, apply), and the rest of the lockstep step (physics, IMU and wire models,
   pilot, judging: sim_us);
 - vm: the firmware's loop per step fed from the file, served as bridge_fw.main serves a pipe (loop_us: read,
-  CRC, decode, the pass, reply, write, the between-steps heap care), the pass itself (pass_us), the heap care
+  CRC, decode, the pass, reply, write, the between-steps heap care; not the session's start, start_ms:
+  HELLO, PARAMS and BOOT, which compiles the core), the pass itself (pass_us), the heap care
   (slack_us, gc_runs, and heap_looks: the HeapWatch's gc.mem_free() calls), the rest, which is the bridge's
   own exchange (exchange_us = loop_us - pass_us - slack_us), a gc.mem_free() call (mem_free_us: it walks the
   heap's allocation table), and what a step allocates (alloc_bytes mean and max, from gc.mem_alloc() deltas
@@ -53,6 +54,16 @@ def rep(pass_us):
     T[1] += pass_us
     return orep(pass_us)
 fw._reply = rep
+S = [0]  # the session's start (HELLO, PARAMS, BOOT: compiling the core), not a step's
+ohandle0 = fw.handle
+def timed_handle(kind, payload, n):
+    if kind == 0x53:
+        return ohandle0(kind, payload, n)
+    t0 = ticks()
+    r = ohandle0(kind, payload, n)
+    S[0] += diff(ticks(), t0)
+    return r
+fw.handle = timed_handle
 if alloc:
     ohandle = fw.handle
     def handle(kind, payload, n):
@@ -69,14 +80,14 @@ if alloc:
     fw.handle = handle
 t0 = ticks()
 bridge_fw.serve(sys.stdin.buffer, sys.stdout.buffer, fw, flush=False)  # as main() serves a pipe
-loop = diff(ticks(), t0)
+loop = diff(ticks(), t0) - S[0]
 n = fw.steps or 1
 t1 = ticks()
 for i in range(200):
     mem_free()
 mf = diff(ticks(), t1) / 200
-sys.stderr.write("RESULT %d %.2f %.2f %.2f %d %.1f %.1f %d %d\\n" % (
-    fw.steps, loop / n, T[1] / n, T[0] / n, fw.gc_runs, mf, A[0] / (A[1] or 1), A[2], fw.heap.looks))
+sys.stderr.write("RESULT %d %.2f %.2f %.2f %d %.1f %.1f %d %d %d\\n" % (
+    fw.steps, loop / n, T[1] / n, T[0] / n, fw.gc_runs, mf, A[0] / (A[1] or 1), A[2], fw.heap.looks, S[0]))
 """
 
 
@@ -149,8 +160,10 @@ def vm(recording, measure_alloc, prefix=()):
     line = [ln for ln in p.stderr.decode().splitlines() if ln.startswith("RESULT")]
     if not line:
         raise SystemExit("the VM run failed:\n" + p.stderr.decode()[-2000:])
-    steps, loop, pass_us, slack, gc_runs, mem_free_us, alloc_mean, alloc_max, heap_looks = line[0].split()[1:]
-    return {"steps": int(steps), "loop_us": float(loop), "pass_us": float(pass_us), "slack_us": float(slack),
+    steps, loop, pass_us, slack, gc_runs, mem_free_us, alloc_mean, alloc_max, heap_looks, start_us = \
+        line[0].split()[1:]
+    return {"steps": int(steps), "start_ms": round(int(start_us) / 1000.0, 1), "loop_us": float(loop),
+            "pass_us": float(pass_us), "slack_us": float(slack),
             "exchange_us": round(float(loop) - float(pass_us) - float(slack), 2),
             "gc_runs": int(gc_runs), "heap_looks": int(heap_looks), "mem_free_us": float(mem_free_us),
             "alloc_bytes": {"mean": float(alloc_mean), "max": int(alloc_max)}}
