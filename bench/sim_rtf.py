@@ -25,7 +25,9 @@ With --firmware micropython the flight core runs in a MicroPython process over t
 (sim/bridge.py): then the JSON gives the real-time factor and, per step, the CPU time of this process
 (physics, wire models, the bridge's host end) and of the firmware process (its pass, the bridge's
 firmware end, its start-up spread over the flight), and the firmware's own pass time. The two
-processes take turns, so on an idle host the step costs about their sum plus two pipe wake-ups.
+processes take turns, so on an idle host the step costs about their sum plus two pipe wake-ups; on a
+busy one the wake-ups cost more, and the figure follows the load (load_avg_1min). Run under
+`taskset -c 0` both processes share one core and each wake-up is a plain switch.
 """
 
 import argparse
@@ -154,6 +156,7 @@ def bridge(args, duration_s=None):
                                               1),
             "firmware_pass_mean_us": r["firmware"]["pass_mean_us"],
             "native_modules": len(native.report().get("native", ())),
+            "load_avg_1min": round(os.getloadavg()[0], 2),  # a bridged step follows the host's load (below)
         }
         if best is None or out["realtime_factor"] > best["realtime_factor"]:
             best = out
