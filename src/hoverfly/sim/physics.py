@@ -135,29 +135,35 @@ class Vehicle:
     def hover_omega(self):
         return math.sqrt(self.mass_kg * G_M_S2 / (self.n * self.kt))
 
-    def step(self, dt, motor_cmd):
+    def step(self, dt: float, motor_cmd):
         """Advance dt seconds with motor commands 0 (stop) or idle..1 (ESC throttle)."""
-        kt = self.kt
-        kq = self.kq
+        # The `: float` locals are C doubles on the compiled twin (hoverfly/native.py) and plain annotations on
+        # CPython: the same IEEE arithmetic either way (no `**` or `%` on them), without a float object per
+        # operation, which is most of a step's cost there (bench/sim_rtf.py).
+        kt: float = self.kt
+        kq: float = self.kq
         omega = self.omega
         bat = self.battery
-        omega_max = self.omega_per_volt * bat.voltage_v
+        omega_max: float = self.omega_per_volt * bat.voltage_v
         if dt != self._lag_dt:  # the motors' lag factors for this step length (the same every step)
             self._lag_dt = dt
             self._a_up = dt / (self.tau_up_s + dt)
             self._a_dn = dt / (self.tau_down_s + dt)
-        a_up = self._a_up
-        a_dn = self._a_dn
-        thrust = 0.0
-        tx = 0.0
-        ty = 0.0
-        tz = 0.0
-        power = 0.0
+        a_up: float = self._a_up
+        a_dn: float = self._a_dn
+        thrust: float = 0.0
+        tx: float = 0.0
+        ty: float = 0.0
+        tz: float = 0.0
+        power: float = 0.0
         px = self.px
         py = self.py
         spin = self.spin
         sqrt = math.sqrt
-        omega_sum = 0.0
+        omega_sum: float = 0.0
+        target: float
+        w: float
+        t: float
         for i in range(self.n):
             target = motor_cmd[i] * omega_max
             w = omega[i]
@@ -172,9 +178,9 @@ class Vehicle:
             ty += px[i] * t
             tz -= spin[i] * kq * w * w
             power += t * sqrt(t)
-        fz_body = -thrust
-        fx_body = 0.0
-        fy_body = 0.0
+        fz_body: float = -thrust
+        fx_body: float = 0.0
+        fy_body: float = 0.0
         if self.tri:
             # Tail thrust tilted by the servo: a sideways force at the tail gives yaw.
             t_tail = kt * omega[0] * omega[0]
@@ -182,39 +188,42 @@ class Vehicle:
             side = t_tail * math.sin(ang)
             fy_body += side
             tz += -px[0] * side  # tail is behind (px < 0): force to the right yaws the nose right
-        current = power * self._power_k / (bat.voltage_v if bat.voltage_v > 1.0 else 1.0) + self.idle_current_a
+        current: float = power * self._power_k / (bat.voltage_v if bat.voltage_v > 1.0 else 1.0) + self.idle_current_a
         bat.step(current, dt)
 
         # Rotation matrix body->NED from the quaternion.
         w = self.qw
-        x = self.qx
-        y = self.qy
-        z = self.qz
-        r00 = 1 - 2 * (y * y + z * z)
-        r01 = 2 * (x * y - w * z)
-        r02 = 2 * (x * z + w * y)
-        r10 = 2 * (x * y + w * z)
-        r11 = 1 - 2 * (x * x + z * z)
-        r12 = 2 * (y * z - w * x)
-        r20 = 2 * (x * z - w * y)
-        r21 = 2 * (y * z + w * x)
-        r22 = 1 - 2 * (x * x + y * y)
+        x: float = self.qx
+        y: float = self.qy
+        z: float = self.qz
+        r00: float = 1 - 2 * (y * y + z * z)
+        r01: float = 2 * (x * y - w * z)
+        r02: float = 2 * (x * z + w * y)
+        r10: float = 2 * (x * y + w * z)
+        r11: float = 1 - 2 * (x * x + z * z)
+        r12: float = 2 * (y * z - w * x)
+        r20: float = 2 * (x * z - w * y)
+        r21: float = 2 * (y * z + w * x)
+        r22: float = 1 - 2 * (x * x + y * y)
 
-        m = self.mass_kg
-        vn0 = self.vn
-        ve0 = self.ve
-        vd0 = self.vd
+        m: float = self.mass_kg
+        vn0: float = self.vn
+        ve0: float = self.ve
+        vd0: float = self.vd
         # Drag against the air, world frame.
-        an = vn0 - self.wind_n
-        ae = ve0 - self.wind_e
-        ad = vd0 - self.wind_d
-        speed = math.sqrt(an * an + ae * ae + ad * ad)
-        c = self.drag_n_per_m2_s2 * speed
-        dn = -c * an
-        de = -c * ae
-        dd = -c * ad
+        an: float = vn0 - self.wind_n
+        ae: float = ve0 - self.wind_e
+        ad: float = vd0 - self.wind_d
+        speed: float = sqrt(an * an + ae * ae + ad * ad)
+        c: float = self.drag_n_per_m2_s2 * speed
+        dn: float = -c * an
+        de: float = -c * ae
+        dd: float = -c * ad
         # Rotor drag (H-force): spinning rotors resist air moving across the disc, in the body plane.
-        kd = self.rotor_drag * omega_sum
+        kd: float = self.rotor_drag * omega_sum
+        bx: float
+        by: float
+        h: float
         if kd > 0.0:
             bx = r00 * an + r10 * ae + r20 * ad
             by = r01 * an + r11 * ae + r21 * ad
@@ -225,24 +234,24 @@ class Vehicle:
             tx -= h * kd * by
             ty += h * kd * bx
         # Non-gravitational force in the world frame.
-        fn = r00 * fx_body + r01 * fy_body + r02 * fz_body + dn
-        fe = r10 * fx_body + r11 * fy_body + r12 * fz_body + de
-        fd = r20 * fx_body + r21 * fy_body + r22 * fz_body + dd
-        vn = vn0 + fn / m * dt
-        ve = ve0 + fe / m * dt
-        vd = vd0 + (fd / m + G_M_S2) * dt
+        fn: float = r00 * fx_body + r01 * fy_body + r02 * fz_body + dn
+        fe: float = r10 * fx_body + r11 * fy_body + r12 * fz_body + de
+        fd: float = r20 * fx_body + r21 * fy_body + r22 * fz_body + dd
+        vn: float = vn0 + fn / m * dt
+        ve: float = ve0 + fe / m * dt
+        vd: float = vd0 + (fd / m + G_M_S2) * dt
         self.pn += vn * dt
         self.pe += ve * dt
-        pd = self.pd + vd * dt
+        pd: float = self.pd + vd * dt
 
         # Rotational dynamics, body frame (Euler's equations).
-        p = self.p
-        q = self.q
-        r = self.r
-        ixx = self.ixx
-        iyy = self.iyy
-        izz = self.izz
-        damp = self.ang_damping
+        p: float = self.p
+        q: float = self.q
+        r: float = self.r
+        ixx: float = self.ixx
+        iyy: float = self.iyy
+        izz: float = self.izz
+        damp: float = self.ang_damping
         tx += self.torque_x_nm - damp * p
         ty += self.torque_y_nm - damp * q
         tz += self.torque_z_nm - damp * r
@@ -268,7 +277,7 @@ class Vehicle:
                 p = 0.0
                 q = 0.0
                 r *= 0.5
-                yaw = math.atan2(r10, r00)
+                yaw: float = math.atan2(r10, r00)
                 w = math.cos(yaw / 2)
                 x = 0.0
                 y = 0.0
@@ -287,32 +296,35 @@ class Vehicle:
 
         # Attitude: q <- q * exp(omega dt / 2), then normalise.
         h = 0.5 * dt
-        hx = p * h
-        hy = q * h
-        hz = r * h
-        nw = w - x * hx - y * hy - z * hz
-        nx = x + w * hx + y * hz - z * hy
-        ny = y + w * hy - x * hz + z * hx
-        nz = z + w * hz + x * hy - y * hx
-        inv = 1.0 / math.sqrt(nw * nw + nx * nx + ny * ny + nz * nz)
+        hx: float = p * h
+        hy: float = q * h
+        hz: float = r * h
+        nw: float = w - x * hx - y * hy - z * hz
+        nx: float = x + w * hx + y * hz - z * hy
+        ny: float = y + w * hy - x * hz + z * hx
+        nz: float = z + w * hz + x * hy - y * hx
+        inv: float = 1.0 / sqrt(nw * nw + nx * nx + ny * ny + nz * nz)
         self.qw = nw * inv
         self.qx = nx * inv
         self.qy = ny * inv
         self.qz = nz * inv
 
         # Specific force in the body (accelerometer): (dv/dt - g) rotated into the body.
-        an_w = (vn - vn0) / dt
-        ae_w = (ve - ve0) / dt
-        ad_w = (vd - vd0) / dt - G_M_S2
+        an_w: float = (vn - vn0) / dt
+        ae_w: float = (ve - ve0) / dt
+        ad_w: float = (vd - vd0) / dt - G_M_S2
         self.fx = r00 * an_w + r10 * ae_w + r20 * ad_w
         self.fy = r01 * an_w + r11 * ae_w + r21 * ad_w
         self.fz = r02 * an_w + r12 * ae_w + r22 * ad_w
 
     # -------------------------------------------------------------- truth
     def euler_rad(self):
-        w, x, y, z = self.qw, self.qx, self.qy, self.qz
+        w: float = self.qw
+        x: float = self.qx
+        y: float = self.qy
+        z: float = self.qz
         roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
-        s = 2 * (w * y - z * x)
+        s: float = 2 * (w * y - z * x)
         pitch = math.asin(1.0 if s > 1.0 else (-1.0 if s < -1.0 else s))
         yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
         return roll, pitch, yaw

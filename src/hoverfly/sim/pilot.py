@@ -76,18 +76,22 @@ class Pilot:
 
         if self.hold_alt_m is not None:
             # Move the target toward the wanted altitude at a comfortable climb rate.
-            step = self.climb_rate_m_s * dt
-            d = self.hold_alt_m - self._alt_target_m
-            self._alt_target_m += _clamp(d, -step * (0.5 if self.landing else 1.0), step)
-            alt = v.altitude_m()
-            climb = -v.vd
-            err = self._alt_target_m - alt
+            # (The `: float` locals are C doubles on the compiled twin, as in sim/physics.py's Vehicle.step.)
+            step: float = self.climb_rate_m_s * dt
+            lo: float = -step * (0.5 if self.landing else 1.0)
+            d: float = self.hold_alt_m - self._alt_target_m
+            target: float = self._alt_target_m + (lo if d < lo else (step if d > step else d))
+            self._alt_target_m = target
+            err: float = target - -v.pd  # the altitude
+            alt_i: float = self._alt_i
             if not v.on_ground:
-                self._alt_i = _clamp(self._alt_i + err * dt * 0.15, -0.3, 0.3)
-            thr = self.hover_guess + self._alt_i + 0.12 * err - 0.10 * climb
+                alt_i += err * dt * 0.15
+                alt_i = -0.3 if alt_i < -0.3 else (0.3 if alt_i > 0.3 else alt_i)
+                self._alt_i = alt_i
+            thr: float = self.hover_guess + alt_i + 0.12 * err - 0.10 * -v.vd  # -vd: the climb rate
             if cos_tilt > 0.5:
                 thr /= cos_tilt
-            throttle = _clamp(thr, 0.0, 0.9)
+            throttle = 0.0 if thr < 0.0 else (0.9 if thr > 0.9 else thr)
             if self.landing and v.on_ground and self._alt_target_m <= 0.05:
                 if self._landed_s is None:
                     self._landed_s = t
@@ -144,8 +148,9 @@ class Pilot:
         # the pitch stick is forward-positive: a back flip (nose up) wants it pulled back
         return self.roll, -stick, throttle
 
-    def write(self, roll, pitch, yaw, throttle):
-        # Every step: the clamps are written out (a call each would be most of the cost).
+    def write(self, roll: float, pitch: float, yaw: float, throttle: float):
+        # Every step: the clamps are written out (a call each would be most of the cost); the stick positions
+        # are C doubles on the compiled twin.
         ch = self.ch
         m = self.map
         ch[m[0]] = int(1500 + 500 * (-1.0 if roll < -1.0 else (1.0 if roll > 1.0 else roll)))

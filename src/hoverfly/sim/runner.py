@@ -293,14 +293,22 @@ class SimRun:
         flight.start(boot)
         ev_seen = 0
 
-        # The judging runs every pass: its running figures are locals, not a dict.
-        tilt_sq = 0.0
+        # The judging runs every pass: its running figures are locals, not a dict, and the `: float` ones are C
+        # doubles on the compiled twin (hoverfly/native.py), no float object per operation.
+        tilt_sq: float = 0.0
         tilt_n = 0
-        max_tilt = 0.0
-        alt_min = 1e9
-        alt_max = -1e9
-        drift = 0.0
-        takeoff_n = takeoff_e = 0.0
+        max_tilt: float = 0.0
+        alt_min: float = 1e9
+        alt_max: float = -1e9
+        drift: float = 0.0
+        takeoff_n: float = 0.0
+        takeoff_e: float = 0.0
+        alt: float
+        dn: float
+        de: float
+        d: float
+        c: float
+        tilt: float
         airborne_at = None
         judge_from = self.scenario.get("judge_from_s", 0.0)
         steps_open = {}

@@ -43,10 +43,12 @@ class ImuModel:
     def sample(self, v, gyro_out, accel_out):
         if self.frozen:
             return
+        # The `: float` locals are C doubles on the compiled twin and plain annotations on CPython: the same
+        # arithmetic without a float object per operation (as in sim/physics.py's Vehicle.step).
         nz = self.noise
         k = self._k
-        gs = self.gyro_sigma
-        acs = self.accel_sigma
+        gs: float = self.gyro_sigma
+        acs: float = self.accel_sigma
         gb = self.gyro_bias
         ab = self.accel_bias
         self._steps += 1
@@ -57,10 +59,13 @@ class ImuModel:
             gb[1] += rng.gauss(0.0, w)
             gb[2] += rng.gauss(0.0, w)
         # vibration: sum of rotor sinusoids
-        vib_g = 0.0
-        vib_x = 0.0
-        vib_y = 0.0
-        dt = self.dt
+        vib_g: float = 0.0
+        vib_x: float = 0.0
+        vib_y: float = 0.0
+        dt: float = self.dt
+        w: float
+        p: float
+        a: float
         ph = self.phase
         omega = v.omega
         dir_cos = self._vib_cos
@@ -76,20 +81,20 @@ class ImuModel:
             vib_g += a
             vib_x += a * dir_cos[i]
             vib_y += a * dir_sin[i]
-        gv = self.gyro_vib
-        av = self.accel_vib
-        gx = v.p + gb[0] + gs * nz[k] + gv * vib_x
-        gy = v.q + gb[1] + gs * nz[k + 1] + gv * vib_y
-        gz = v.r + gb[2] + gs * nz[k + 2] + gv * 0.3 * vib_g
-        ax = v.fx + ab[0] + acs * nz[k + 3] + av * vib_x
-        ay = v.fy + ab[1] + acs * nz[k + 4] + av * vib_y
-        az = v.fz + ab[2] + acs * nz[k + 5] + av * vib_g
+        gv: float = self.gyro_vib
+        av: float = self.accel_vib
+        gx: float = v.p + gb[0] + gs * nz[k] + gv * vib_x
+        gy: float = v.q + gb[1] + gs * nz[k + 1] + gv * vib_y
+        gz: float = v.r + gb[2] + gs * nz[k + 2] + gv * 0.3 * vib_g
+        ax: float = v.fx + ab[0] + acs * nz[k + 3] + av * vib_x
+        ay: float = v.fy + ab[1] + acs * nz[k + 4] + av * vib_y
+        az: float = v.fz + ab[2] + acs * nz[k + 5] + av * vib_g
         k += 6
         if k > _TABLE - 7:
             k -= _TABLE - 7
         self._k = k
-        gm = self.gyro_max
-        am = self.accel_max
+        gm: float = self.gyro_max
+        am: float = self.accel_max
         gyro_out[0] = gm if gx > gm else (-gm if gx < -gm else gx)
         gyro_out[1] = gm if gy > gm else (-gm if gy < -gm else gy)
         gyro_out[2] = gm if gz > gm else (-gm if gz < -gm else gz)
