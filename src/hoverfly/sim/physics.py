@@ -36,23 +36,22 @@ class Battery:
         self.mah_drawn = 0.0
 
     def ocv_v(self):
-        x = self.soc * 10.0
+        x: float = self.soc * 10.0
         if x <= 0.0:
             return self._OCV[0] * self.cells
         if x >= 10.0:
             return self._OCV[10] * self.cells
         i = int(x)
-        f = x - i
+        f: float = x - i
         return (self._OCV[i] * (1.0 - f) + self._OCV[i + 1] * f) * self.cells
 
-    def step(self, current_a, dt_s):
+    def step(self, current_a: float, dt_s: float):
         self.current_a = current_a
         self.voltage_v = self.ocv_v() - current_a * self.r_int_ohm
-        used = current_a * dt_s / 3.6  # mAh
+        used: float = current_a * dt_s / 3.6  # mAh
         self.mah_drawn += used
-        self.soc -= used / self.capacity_mah
-        if self.soc < 0.0:
-            self.soc = 0.0
+        soc: float = self.soc - used / self.capacity_mah
+        self.soc = 0.0 if soc < 0.0 else soc
 
 
 class Vehicle:
@@ -164,8 +163,13 @@ class Vehicle:
         target: float
         w: float
         t: float
+        arm_x: float
+        arm_y: float
+        turn: float
         for i in range(self.n):
-            target = motor_cmd[i] * omega_max
+            # list items taken into C doubles first, so the arithmetic below stays in C on the twin
+            target = motor_cmd[i]
+            target = target * omega_max
             w = omega[i]
             w += (a_up if target > w else a_dn) * (target - w)
             if w < 0.0:
@@ -174,9 +178,12 @@ class Vehicle:
             omega_sum += w
             t = kt * w * w
             thrust += t
-            tx -= py[i] * t
-            ty += px[i] * t
-            tz -= spin[i] * kq * w * w
+            arm_x = px[i]
+            arm_y = py[i]
+            turn = spin[i]
+            tx -= arm_y * t
+            ty += arm_x * t
+            tz -= turn * kq * w * w
             power += t * sqrt(t)
         fz_body: float = -thrust
         fx_body: float = 0.0

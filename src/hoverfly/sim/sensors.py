@@ -71,16 +71,23 @@ class ImuModel:
         dir_cos = self._vib_cos
         dir_sin = self._vib_sin
         sin = math.sin
+        s: float
+        c: float
         for i in range(len(omega)):
+            # list items and sin() taken into C doubles first, so the arithmetic stays in C on the twin
             w = omega[i]
-            p = ph[i] + w * dt
+            p = ph[i]
+            p += w * dt
             if p > 6.283185307179586:
                 p -= 6.283185307179586 * int(p / 6.283185307179586)
             ph[i] = p
-            a = w * w * sin(p)
+            s = sin(p)
+            a = w * w * s
             vib_g += a
-            vib_x += a * dir_cos[i]
-            vib_y += a * dir_sin[i]
+            c = dir_cos[i]
+            vib_x += a * c
+            s = dir_sin[i]
+            vib_y += a * s
         gv: float = self.gyro_vib
         av: float = self.accel_vib
         gx: float = v.p + gb[0] + gs * nz[k] + gv * vib_x
