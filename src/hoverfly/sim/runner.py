@@ -316,11 +316,12 @@ class SimRun:
         last_cmd = {"roll": 0.0, "pitch": 0.0, "yaw": 0.0}
         gust_until = None
         base_wind = [0.0, 0.0, 0.0]
-        loop_sum = 0.0
-        loop_max = 0.0
+        loop_sum: float = 0.0
+        loop_max: float = 0.0
+        took: float
         overruns = 0
         perf = time.perf_counter
-        period_s = dt
+        period_s: float = dt
         frozen = False
         self._imu_stuck = False
         self._stall_until = -1.0

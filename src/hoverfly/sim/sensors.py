@@ -90,12 +90,32 @@ class ImuModel:
             vib_y += a * s
         gv: float = self.gyro_vib
         av: float = self.accel_vib
-        gx: float = v.p + gb[0] + gs * nz[k] + gv * vib_x
-        gy: float = v.q + gb[1] + gs * nz[k + 1] + gv * vib_y
-        gz: float = v.r + gb[2] + gs * nz[k + 2] + gv * 0.3 * vib_g
-        ax: float = v.fx + ab[0] + acs * nz[k + 3] + av * vib_x
-        ay: float = v.fy + ab[1] + acs * nz[k + 4] + av * vib_y
-        az: float = v.fz + ab[2] + acs * nz[k + 5] + av * vib_g
+        # truth, bias and noise read into C doubles, then summed in the same order as written out:
+        # truth + bias + sigma * noise + vibration
+        x: float = v.p
+        b: float = gb[0]
+        n: float = nz[k]
+        gx: float = x + b + gs * n + gv * vib_x
+        x = v.q
+        b = gb[1]
+        n = nz[k + 1]
+        gy: float = x + b + gs * n + gv * vib_y
+        x = v.r
+        b = gb[2]
+        n = nz[k + 2]
+        gz: float = x + b + gs * n + gv * 0.3 * vib_g
+        x = v.fx
+        b = ab[0]
+        n = nz[k + 3]
+        ax: float = x + b + acs * n + av * vib_x
+        x = v.fy
+        b = ab[1]
+        n = nz[k + 4]
+        ay: float = x + b + acs * n + av * vib_y
+        x = v.fz
+        b = ab[2]
+        n = nz[k + 5]
+        az: float = x + b + acs * n + av * vib_g
         k += 6
         if k > _TABLE - 7:
             k -= _TABLE - 7
