@@ -406,11 +406,9 @@ class Flight:
     def _control_float(self, dt_us, sp):
         """4. The controller and 5. the mixer in float (pid_math float, or where the fixed stage cannot run)."""
         s = self.signals
-        c = self.commander
-        mixer = self.mixer
-        torque = s.torque_norm
-        self.controller.update(sp, s.attitude, s.gyro_rad_s, self._dt_s(dt_us), c.i_active, mixer.saturated, torque)
-        mixer.update(sp.throttle_norm, torque, c.airmode_active, s.motor_norm)
+        self.controller.update(sp, s.attitude, s.gyro_rad_s, self._dt_s(dt_us), self.commander.i_active,
+                               self.mixer.saturated, s.torque_norm)
+        self.mixer.update(sp.throttle_norm, s.torque_norm, self.commander.airmode_active, s.motor_norm)
 
     def _control_plane(self, dt_us, sp):
         """4. A plane's controller (core/stages/fwcontrol.py): stabilised roll, pitch, yaw into torque_norm for

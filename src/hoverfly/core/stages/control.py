@@ -96,7 +96,7 @@ class Controller:
             return -lim
         return rate
 
-    def _anti_gravity(self, thr, inv_dt, i_active):
+    def _anti_gravity(self, thr, dt_s, i_active):
         """The boost from the throttle's speed (Betaflight 4.3's pidUpdateAntiGravityThrottleFilter)."""
         if thr < 0.0:
             thr = 0.0
@@ -109,22 +109,16 @@ class Controller:
             self.ag_filter.reset(0.0)
             self._anti_gravity_off()
             return
+        if dt_s != self._dt_s:
+            self._dt_s = dt_s
+            self._inv_dt = 1.0 / dt_s
         d = thr - self._ag_last_thr
         self._ag_last_thr = thr
         inv = 1.0 - thr
-        x = (d if d >= 0.0 else -d) * inv_dt * inv * inv
+        x = (d if d >= 0.0 else -d) * self._inv_dt * inv * inv
         if d > 0.0:  # rising: the low-throttle end matters most (a punch out of a dive)
             x *= inv * 0.5
-        # The PT2 runs every pass: Pt2.update's arithmetic written out on its state, as AccelFilter's are.
-        f = self.ag_filter
-        k = f.k
-        s1 = f.s1
-        s1 = s1 + k * (x - s1)
-        f.s1 = s1
-        y = f.y
-        y = y + k * (s1 - y)
-        f.y = y
-        b = y * self.ag_gain
+        b = self.ag_filter.update(x) * self.ag_gain
         if b > AG_BOOST_MAX:
             b = AG_BOOST_MAX
         self.ag_boost = b
@@ -142,12 +136,12 @@ class Controller:
         mode = sp.mode
         roll_sp = sp.roll_angle_rad
         pitch_sp = sp.pitch_angle_rad
-        # 1/dt once per new dt (the loop's dt repeats pass after pass), for the angle loop and anti-gravity.
-        if dt_s != self._dt_s:
-            self._dt_s = dt_s
-            self._inv_dt = 1.0 / dt_s
-        inv_dt = self._inv_dt
         if mode != MODE_ACRO:
+            # 1/dt once per new dt (the loop's dt repeats pass after pass).
+            if dt_s != self._dt_s:
+                self._dt_s = dt_s
+                self._inv_dt = 1.0 / dt_s
+            inv_dt = self._inv_dt
             level_roll = self._level_rate(roll_sp, attitude.roll_rad - self.trim_roll_rad, self._last_roll_sp, inv_dt)
             level_pitch = self._level_rate(pitch_sp, attitude.pitch_rad - self.trim_pitch_rad, self._last_pitch_sp,
                                            inv_dt)
@@ -178,7 +172,7 @@ class Controller:
             tpa = 1.0 - self.tpa_rate * (thr - bp) / (1.0 - bp)
         self.tpa = tpa
         if self.ag_gain != 0.0:
-            self._anti_gravity(thr, inv_dt, i_active)
+            self._anti_gravity(thr, dt_s, i_active)
         torque_norm[0] = self.roll.update(rate[0], gyro_rad_s[0], dt_s, tpa, i_active, saturated)
         torque_norm[1] = self.pitch.update(rate[1], gyro_rad_s[1], dt_s, tpa, i_active, saturated)
         torque_norm[2] = self.yaw.update(rate[2], gyro_rad_s[2], dt_s, 1.0, i_active, saturated)

@@ -145,22 +145,19 @@ class Attitude:
         """Euler angles and tilt from the quaternion's components (already stored in `q`)."""
         # 1 - 2(x² + y²) is both roll's denominator and the tilt cosine: worked out once.
         c = 1.0 - 2.0 * (x * x + y * y)
-        roll = math.atan2(2.0 * (w * x + y * z), c)
+        self.roll_rad = math.atan2(2.0 * (w * x + y * z), c)
         s = 2.0 * (w * y - z * x)
         if s > 1.0:
             s = 1.0
         elif s < -1.0:
             s = -1.0
-        pitch = math.asin(s)
-        yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
-        self.roll_rad = roll
-        self.pitch_rad = pitch
-        self.yaw_rad = yaw
+        self.pitch_rad = math.asin(s)
+        self.yaw_rad = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
         self.cos_tilt = c
         a = self.angles
-        a[0] = roll
-        a[1] = pitch
-        a[2] = yaw
+        a[0] = self.roll_rad
+        a[1] = self.pitch_rad
+        a[2] = self.yaw_rad
         a[3] = c
 
 

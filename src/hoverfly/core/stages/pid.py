@@ -112,16 +112,7 @@ class AxisPid:
     def _dmin(self, gyro_accel, sp_accel):
         """D-min's factor for this pass (d_min/d_max .. 1) from the filtered gyro's and the setpoint's
         acceleration (rad/s²)."""
-        # The two PT2s run every pass on roll and pitch: Pt2.update's arithmetic written out on their state,
-        # as AccelFilter's are (the same numbers).
-        f = self.dmin_range
-        k = f.k
-        s1 = f.s1
-        s1 = s1 + k * (gyro_accel - s1)
-        f.s1 = s1
-        g = f.y
-        g = g + k * (s1 - g)
-        f.y = g
+        g = self.dmin_range.update(gyro_accel)
         if g < 0:
             g = -g
         g *= self.dmin_gyro_gain
@@ -132,16 +123,7 @@ class AxisPid:
         if g > DMIN_BOOST_MAX:
             g = DMIN_BOOST_MAX
         pct = self.dmin_pct
-        x = pct + (1.0 - pct) * g
-        f = self.dmin_lowpass
-        k = f.k
-        s1 = f.s1
-        s1 = s1 + k * (x - s1)
-        f.s1 = s1
-        y = f.y
-        y = y + k * (s1 - y)
-        f.y = y
-        f = y
+        f = self.dmin_lowpass.update(pct + (1.0 - pct) * g)
         if f > 1.0:
             f = 1.0
         self.dmin_factor = f
@@ -177,9 +159,8 @@ class AxisPid:
         p = self.kp * err
         if self.tpa_on_p and tpa != 1.0:
             p *= tpa
-        boost = self.p_boost
-        if boost != 1.0:
-            p *= boost
+        if self.p_boost != 1.0:
+            p *= self.p_boost
         # Anti-windup: stop integrating toward the side the mixer can no longer deliver.
         if i_active:
             i = self.i
@@ -200,15 +181,14 @@ class AxisPid:
                     step = 0.0
                 elif factor != 1.0:
                     step *= factor
-            boost = self.i_boost
-            if boost != 1.0:
+            if self.i_boost != 1.0:
                 # anti-gravity: I catches up while the throttle moves fast (a step of over half the range
                 # is a stall's, not a flight's: capped there first, as the fixed-point pass must)
                 if step > 0.5:
                     step = 0.5
                 elif step < -0.5:
                     step = -0.5
-                step *= boost
+                step *= self.i_boost
             if not saturated or (step > 0) != (self.out > 0):
                 i += step
             lim = self.i_limit
@@ -227,19 +207,18 @@ class AxisPid:
         inv_dt = self._inv_dt
         # D on measurement: a setpoint step kicks nothing, a gyro spike is damped.
         nkd = self._neg_kd
-        last_sp = self._last_setpoint
         if nkd != 0.0:
             if tpa != 1.0:
                 nkd *= tpa
             dg = self._d_update((gyro_rad_s - self._last_gyro) * inv_dt)
             if self.dmin_on:
-                nkd *= self._dmin(dg, (setpoint_rad_s - last_sp) * inv_dt)
+                nkd *= self._dmin(dg, (setpoint_rad_s - self._last_setpoint) * inv_dt)
             d = nkd * dg
         else:  # no D gain: keep the filter running so a live D change starts from its state
             self._d_update((gyro_rad_s - self._last_gyro) * inv_dt)
             d = 0.0
         self._last_gyro = gyro_rad_s
-        f = self.kf * (setpoint_rad_s - last_sp) * inv_dt
+        f = self.kf * (setpoint_rad_s - self._last_setpoint) * inv_dt
         if self.k_static != 0.0:
             f += self.k_static * setpoint_rad_s
         self._last_setpoint = setpoint_rad_s
