@@ -79,7 +79,7 @@ def test_crsf_frame_gives_the_channels_and_stamps_the_frame():
     assert list(rx.channels_us) == CH
     assert rx.frames == 1 and rx.last_frame_us == now and rx.frame_age_us(ticks_add(now, 500)) == 500
     out = array("H", [0] * 18)
-    rc = RcInput()  # the frame into the pilot's channels, as Flight._rx_frame hands it over
+    rc = RcInput()  # the frame into the pilot's channels, as Flight._take_frame hands it over
     rc.configure(Params(), 1000)
     rc.new_frame(out, rx.channels_us)
     assert list(out[:16]) == CH

@@ -490,18 +490,19 @@ class Flight:
     # -------------------------------------------------------------- slow tasks
     def task_rx(self, now_us):
         rx = self.receiver
-        if rx.update(now_us, self.board):
-            self._rx_frame(now_us, rx)
-        elif self.rx_ok and ticks_diff(now_us, self.last_frame_us) > self._rx_timeout_us:
-            self._rx_lost()  # (most polls find no frame, and send no telemetry: it goes out only right after one)
+        if not rx.update(now_us, self.board):
+            # Most polls: no new frame (and no telemetry: it goes out only right after a frame).
+            if self.rx_ok and ticks_diff(now_us, self.last_frame_us) > self._rx_timeout_us:
+                self._rx_lost()
+            return
+        self._rx_frame(now_us, rx)
 
     def _rx_lost(self):
         self.rx_ok = False
         self.events.record(self.last_frame_us, EV_RX_LOST, CAUSE_SWITCH if self.fs_switch else CAUSE_NO_FRAMES)
 
     def _rx_frame(self, now_us, rx):
-        """A new frame: the failsafe switch; the channels to the pilot's sticks and switches, to the supervisor
-        (arming) and the commander; telemetry. (One method, not two: it runs at every frame.)"""
+        """A new frame: the failsafe switch, the pilot's sticks and switches, arming, telemetry."""
         rc = self.rc
         fs_switch = self.fs_switch = rc.fs_switch_box and rc.fs_switch_in(rx.channels_us)  # no channel: no call
         if fs_switch and self.supervisor.fs_switch_mode != SWITCH_KILL:
@@ -510,18 +511,23 @@ class Flight:
             if self.rx_ok and ticks_diff(now_us, self.last_frame_us) > self._rx_timeout_us:
                 self._rx_lost()
         else:
-            self.last_frame_us = now_us
-            rc.new_frame(self.signals.rc_channels_us, rx.channels_us)  # the receiver's frame copied in, in one call
-            if not self.rx_ok:
-                self.rx_ok = True
-                self.events.record(now_us, EV_RX_RESTORED, 0)
-            self.supervisor.on_frame(now_us, fs_switch)
-            self.commander.pilot_frame(now_us, self.arming.armed)
-            log_rc = self.log_rc  # the every-pass logger's input_rc for this frame, else None (Logger sets it)
-            if log_rc is not None:
-                log_rc()
+            self._take_frame(now_us, rx, fs_switch)
         if rx.telemetry_due(now_us):
             self._send_telemetry(now_us, rx)
+
+    def _take_frame(self, now_us, rx, fs_switch):
+        """The frame's channels to the pilot's sticks and switches, to the supervisor (arming) and the commander."""
+        channels = self.signals.rc_channels_us
+        self.last_frame_us = now_us
+        self.rc.new_frame(channels, rx.channels_us)  # the receiver's frame copied in, in the same call
+        if not self.rx_ok:
+            self.rx_ok = True
+            self.events.record(now_us, EV_RX_RESTORED, 0)
+        self.supervisor.on_frame(now_us, fs_switch)
+        self.commander.pilot_frame(now_us, self.arming.armed)
+        log_rc = self.log_rc  # the every-pass logger's input_rc for this frame, else None (Logger sets it)
+        if log_rc is not None:
+            log_rc()
 
     def _send_telemetry(self, now_us, rx):
         s = self.signals

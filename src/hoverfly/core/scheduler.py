@@ -193,23 +193,22 @@ class Scheduler:
             self.next_due_us = ticks_add(now_us, _FAR_US)
             return
         wait_us = 0  # how late a slow task must be to run in this pass: a loop period once a task ran
-        nxt = fast.next_us
-        late = ticks_diff(now_us, nxt)
+        late = ticks_diff(now_us, fast.next_us)
         if late >= 0:
             # _run(fast, now_us) inline, on the lateness already taken: the receiver's task, every other
             # pass at 1 kHz (a period on; from now if it fell a whole period behind)
             fast.runs += 1
             if not _call(fast, now_us):
                 self._failed(fast)
-            late = fast.period_us - late  # what is left of the period: the next run is that far from now
-            nxt = ticks_add(now_us, late if late > 0 else fast.period_us)
-            fast.next_us = nxt
+            nxt = fast.period_us
+            fast.next_us = ticks_add(fast.next_us if late < nxt else now_us, nxt)
             wait_us = self.period_us
-        slow_us = self._slow_due_us
-        if ticks_diff(now_us, slow_us) >= wait_us:  # none may run yet: not even the walk
+        if ticks_diff(now_us, self._slow_due_us) >= wait_us:  # none may run yet: not even the walk
             self._run_slow(now_us, wait_us)
-            slow_us = self._slow_due_us
-        self.next_due_us = slow_us if ticks_diff(slow_us, nxt) < 0 else nxt
+        nxt = fast.next_us
+        if ticks_diff(self._slow_due_us, nxt) < 0:
+            nxt = self._slow_due_us
+        self.next_due_us = nxt
 
     def _run_slow(self, now_us, wait_us):
         """The tasks other than the fastest that are due, then the soonest of their next times. A due task
@@ -222,13 +221,11 @@ class Scheduler:
         while i > 0:  # _slow is held last-added first: from its end, in the order added
             i -= 1
             t = self._slow[i]
-            nxt = t.next_us
-            if ticks_diff(now_us, nxt) >= wait_us:
+            if ticks_diff(now_us, t.next_us) >= wait_us:
                 self._run(t, now_us)
                 wait_us = self.period_us
-                nxt = t.next_us
-            if ticks_diff(nxt, soonest) < 0:
-                soonest = nxt
+            if ticks_diff(t.next_us, soonest) < 0:
+                soonest = t.next_us
         self._slow_due_us = soonest
 
     def _run(self, t, now_us):

@@ -147,8 +147,8 @@ class PipeTransport:
     same_cpu (Linux; default on unless HOVERFLY_BRIDGE_SAME_CPU=0): while the bridge is open, this thread and
     the child run on one CPU, the one this thread was on. The two take turns, one always waiting for the
     other, so they never want two CPUs; on two, every turn is a wake-up from one CPU to the other, which on a
-    virtual machine costs more than the firmware's whole step (the host waited 84-101 us for an answer made
-    in 30: docs/sweep-and-tune.md), while on one a turn is a plain switch. The thread's own CPUs are given
+    virtual machine costs more than the firmware's whole step (docs/sweep-and-tune.md has the figures), while
+    on one a turn is a plain switch. The thread's own CPUs are given
     back at close."""
 
     # A VM on a loaded machine compiles the core at BOOT; a hang still ends, just not quickly.
