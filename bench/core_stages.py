@@ -173,7 +173,7 @@ def install_stages(board, f):
     probe(f.rc, "update", "rc.update", 1)
     probe(f.commander, "update", "commander.update", 2)
     if f._fixed_on:  # pid_math: the controller and mixer as one fixed-point pass (MicroPython)
-        probe(f.fixed, "update", "fixed: controller + mixer", 5)
+        probe(f.fixed, "update", "fixed: controller + mixer", 4)
     else:
         probe(f.controller, "update", "controller (math)", 7)
         probe(f.mixer, "update", "mixer", 4)
