@@ -2,7 +2,8 @@
 output codec `OutputEncoder.write`: motor order, command queue, failsafe stamp), bytes allocated, eRPM decode.
 
 Run: `.venv/bin/python bench/dshot.py` and
-`MICROPYPATH=src:.frozen .venv/bin/micropython -X heapsize=192k bench/dshot.py`.
+`MICROPYPATH=src:.frozen .venv/bin/micropython -X heapsize=384k bench/dshot.py` (the parameter table and
+output stage compiled from source need more than 192 KB).
 Prints one JSON object; times are the best of several runs; allocation is measured with
 the GC disabled (MicroPython only; null on CPython).
 """
