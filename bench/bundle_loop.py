@@ -5,8 +5,9 @@ bytecode (`hoverfly flash --bytecode`).
 Run: `.venv/bin/python bench/bundle_loop.py` (CPython: it builds the bundles with mpy-cross and runs the MicroPython
 VM; valgrind for the counts; about three minutes).
 Builds both bundles with cli_flash.build for chip unix-x64, runs bench/core_loop.py on each under the VM
-(MICROPYPATH: the bundle's lib/, then bench/), RUNS times in turn, and counts a pass of each under callgrind as
-bench/core_instructions.py does (counts do not move between runs; times move 10-30 % on a shared host).
+(in core_loop's 640 KB heap; MICROPYPATH: the bundle's lib/, then bench/), RUNS times in turn, and counts a pass
+of each under callgrind as bench/core_instructions.py does (counts do not move between runs; times move
+10-30 % on a shared host).
 Prints one JSON object: {runtime, native_modules, bytecode: {us_per_pass, bytes_per_pass, ir_per_pass,
 heap_frames_per_pass}, native: {...}, bundle_bytes: {chip: {bytecode, native}}}. us_per_pass is the best of the
 runs. heap_frames_per_pass: frames MicroPython took from the heap and gave back within the pass (a bytecode
@@ -53,7 +54,7 @@ def _env(lib):
 
 
 def _time(mp, lib):
-    out = subprocess.run([mp, "-X", "heapsize=512k", os.path.join(HERE, "core_loop.py")], capture_output=True,
+    out = subprocess.run([mp, "-X", "heapsize=640k", os.path.join(HERE, "core_loop.py")], capture_output=True,
                          text=True, env=_env(lib), check=True).stdout
     return json.loads(out.strip().splitlines()[-1])
 
