@@ -1,8 +1,9 @@
 """The receiver-to-setpoint path counted by callgrind instead of timed, on the MicroPython VM (and CPython).
 
-Run: `.venv/bin/python bench/rc_instructions.py` (needs `valgrind` and `.venv/bin/micropython`; about
-two minutes). bench/rc_input.py times the same calls, but the shared host moves its µs by tens of percent
-from run to run; instruction counts do not move, so this is the figure to compare two versions by.
+Run: `.venv/bin/python bench/rc_instructions.py [--cpython]` (needs `valgrind` and `.venv/bin/micropython`;
+about two minutes; --cpython counts the calls on CPython too). bench/rc_input.py times the same calls, but
+the shared host moves its µs by tens of percent from run to run; instruction counts do not move, so this is the
+figure to compare two versions by.
 
 bench/core_loop.py's armed flight (armed_flight(): a CRSF frame on every second receiver poll, the
 roll stick at 1500/1507 µs in turn, so one axis always moves) and then, CALLS times, one of:
@@ -18,7 +19,7 @@ both over 2 * CALLS calls less over CALLS, divided by CALLS. The collector is of
 every 16th call, as the rp2 main loop collects every dozen passes or so: with no collection the allocator's
 search for a free block grows with the garbage made since the last one, and one run's garbage would change
 what the other's allocations cost. Prints one JSON object:
-{calls, micropython: {name: ir_per_call}, cpython: {...}}.
+{calls, micropython: {name: ir_per_call}, cpython: {...} (with --cpython)}.
 """
 
 import sys
