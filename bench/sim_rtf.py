@@ -4,11 +4,12 @@ Prints one JSON object:
 - realtime_factor (simulated s per wall s of the flight loop, best of --runs), realtime_factor_cpu
   (per CPU s of this process: steadier when other work shares the host), steps_per_s, setup_s (making
   the flight: airframe, parameters, the IMU's noise table; it counts in a sweep of short flights);
-- shares: where one flight's time goes, each part timed around its own calls in a separate run
-  (the timer's own cost taken off): the flight core (Flight.step without the board's wire models),
+- shares_pct (and us_per_step): where one flight's time goes, each part timed around its own calls in a
+  separate run (the timer's own cost taken off): the flight core (Flight.step without the board's wire models),
   physics, IMU model, receiver wire, ESC model (DShot decode), pilot, and the runner's loop and judging;
-- profile_shares: the same flight under cProfile, its own time per area (cProfile adds a fixed cost
-  per call, so it overstates areas made of many small calls: the timed shares are the measure).
+- profile_shares_pct: the same flight under cProfile, its own time per area (cProfile adds a fixed cost
+  per call, so it overstates areas made of many small calls: the timed shares are the measure); only when
+  the flight ran on the .py files (--python, or no twins built): cProfile does not see into compiled code.
 
     .venv/bin/python bench/sim_rtf.py [--scenario hover] [--airframe 5inch] [--runs 3] [--no-profile]
     .venv/bin/python bench/sim_rtf.py --firmware micropython [--duration 6]
