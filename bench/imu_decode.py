@@ -2,6 +2,7 @@
 
 Run: `.venv/bin/python bench/imu_decode.py` and
 `MICROPYPATH=src:.frozen .venv/bin/micropython -X heapsize=192k bench/imu_decode.py`.
+(`--reads N`: a quick run of N reads instead of 20000 on CPython, 2000 on MicroPython.)
 Prints one JSON object with two mountings: `axis_map` (CW0, what the rp2 board and
 bench/core_loop.py fly) and `aligned` (a board tilted by 0.05 rad: a general rotation).
 - `read_us`, `bus_us`: read() over the fake I2C bus and register model (frozen registers: the
@@ -47,6 +48,8 @@ from rp2fakes.regmodels import FakeI2C, MPU6050Model  # noqa: E402
 
 RUNS = 7
 N = 2000 if IS_MICROPYTHON else 20000
+if "--reads" in sys.argv:  # a short run checks that the bench still runs; figures need the default
+    N = int(sys.argv[sys.argv.index("--reads") + 1])
 N_COUNT = 2000
 
 

@@ -8,6 +8,7 @@ batches, the fixed and float batches of rc.update alternating (the host is share
 
     .venv/bin/python bench/rc_input.py
     MICROPYPATH=src:.frozen .venv/bin/micropython -X heapsize=384k bench/rc_input.py
+    .venv/bin/python bench/rc_input.py --passes 200   # a quick run (PASSES: 2000 on MicroPython, else 20000)
 """
 
 import sys
@@ -22,6 +23,8 @@ from hoverfly.protocols.crsf import encode_rc_frame
 
 RUNS = 7
 PASSES = 2000 if IS_MICROPYTHON else 20000
+if "--passes" in sys.argv:  # a short run checks that the bench still runs; figures need the default
+    PASSES = int(sys.argv[sys.argv.index("--passes") + 1])
 
 
 def _frames():

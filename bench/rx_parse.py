@@ -3,6 +3,7 @@
 Runs unchanged on CPython and MicroPython:
     .venv/bin/python bench/rx_parse.py
     MICROPYPATH=src:.frozen .venv/bin/micropython -X heapsize=384k bench/rx_parse.py
+    .venv/bin/python bench/rx_parse.py --frames 200   # a quick run (FRAMES: 500 on MicroPython, else 20000)
 (384 KB: the parameter table compiled from source needs more than 192 KB.)
 Prints one JSON object: runtime, µs per frame for CRSF (26 bytes), SBUS (25), iBUS (32),
 CRSF with the frame split in two reads (the framer's assembly path), the whole receiver
@@ -22,6 +23,8 @@ from hoverfly.protocols import crsf, ibus, sbus
 RUNS = 7
 MICROPYTHON = sys.implementation.name == "micropython"
 FRAMES = 500 if MICROPYTHON else 20000
+if "--frames" in sys.argv:  # a short run checks that the bench still runs; figures need the default
+    FRAMES = int(sys.argv[sys.argv.index("--frames") + 1])
 
 _CHANNELS_US = (988, 2011, 1500, 1000, 2000, 1193, 1505, 1817, 1200, 1800, 988, 1500, 2011, 1500, 988, 1500)
 

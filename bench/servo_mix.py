@@ -6,6 +6,7 @@ Prints one JSON object; every figure is the best of RUNS batches (the host is sh
 
     .venv/bin/python bench/servo_mix.py
     MICROPYPATH=src:.frozen .venv/bin/micropython -X heapsize=384k bench/servo_mix.py
+    .venv/bin/python bench/servo_mix.py --passes 200   # a quick run (PASSES: 2000 on MicroPython, else 20000)
 """
 
 import json
@@ -18,6 +19,8 @@ from hoverfly.core.stages.servos import ServoMixer
 
 RUNS = 7
 PASSES = 2000 if IS_MICROPYTHON else 20000
+if "--passes" in sys.argv:  # a short run checks that the bench still runs; figures need the default
+    PASSES = int(sys.argv[sys.argv.index("--passes") + 1])
 
 
 def _mixer(frame, rules=0):

@@ -7,8 +7,10 @@ shared and noisy: the bytes are the figure that does not move).
 
     .venv/bin/python bench/yaw_hold.py
     MICROPYPATH=src:.frozen .venv/bin/micropython -X heapsize=384k bench/yaw_hold.py
+    .venv/bin/python bench/yaw_hold.py --passes 200   # a quick run (PASSES: 2000 on MicroPython, else 20000)
 """
 
+import sys
 from array import array
 
 from hoverfly.compat import IS_MICROPYTHON, collect_garbage, disable_gc, enable_gc, mem_alloc, ticks_diff, ticks_us
@@ -18,6 +20,8 @@ from hoverfly.core.stages.rc import RcInput
 
 RUNS = 7
 PASSES = 2000 if IS_MICROPYTHON else 20000
+if "--passes" in sys.argv:  # a short run checks that the bench still runs; figures need the default
+    PASSES = int(sys.argv[sys.argv.index("--passes") + 1])
 
 
 def _rc(hold):
