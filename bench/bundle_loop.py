@@ -54,9 +54,11 @@ def _env(lib):
 
 
 def _time(mp, lib):
-    out = subprocess.run([mp, "-X", "heapsize=640k", os.path.join(HERE, "core_loop.py")], capture_output=True,
-                         text=True, env=_env(lib), check=True).stdout
-    return json.loads(out.strip().splitlines()[-1])
+    run = subprocess.run([mp, "-X", "heapsize=640k", os.path.join(HERE, "core_loop.py")], capture_output=True,
+                         text=True, env=_env(lib))
+    if run.returncode:  # the VM's own message (a MemoryError building the flight, say), not only the exit status
+        sys.exit("bench/bundle_loop.py: core_loop.py on the bundle failed:\n" + run.stderr + run.stdout)
+    return json.loads(run.stdout.strip().splitlines()[-1])
 
 
 def _child(mp):

@@ -2,7 +2,7 @@
 
 Runs under CPython and MicroPython; prints one JSON object:
 {runtime, us_per_pass, bytes_per_pass, passes, passes_per_gc, us_per_pass_after_gc, tasks_us_per_pass,
-loop_us_per_pass}. Armed, angle mode: an
+loop_us_per_pass, rpm_harmonics} (with "rx_core1": true or "plane": true for those runs). Armed, angle mode: an
 MPU-6050 burst decoded by the MPU-6050 driver, filters, estimator, commander, PIDs, mixer, DShot words
 (core.stages.output.OutputEncoder), a CRSF frame parsed every 4th pass, the scheduler's slow tasks included.
 bytes_per_pass from gc.mem_alloc() deltas with the GC disabled (0 on CPython). Garbage is collected between
