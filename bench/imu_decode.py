@@ -14,7 +14,8 @@ bench/core_loop.py fly) and `aligned` (a board tilted by 0.05 rad: a general rot
 - `alloc_bytes_per_read` (held bursts): gc.mem_alloc deltas with GC off on MicroPython, tracemalloc on CPython.
 
 `--instructions` counts instead (valgrind's callgrind on the MicroPython VM, `MICROPYPATH` as above):
-instructions per driver read (held bus, a run of reads less a run of bus calls, over N_COUNT),
+instructions per driver read (held bus, a run of reads less a run of bus calls, over N_COUNT; both runs
+collect every 16 reads, as the rp2 main loop does, and the collections are left out of the count),
 and `board_ir_per_read`: bench/core_loop.py's BenchBoard.read_imu whole (its burst bus included)
 less an empty loop; the figures to compare two versions of the driver by. Prints {"bench", "n",
 "axis_map_ir_per_read", "aligned_ir_per_read", "board_ir_per_read"}.
@@ -200,17 +201,19 @@ def _child(mount_name, mode, n):
             bus.held = True
             collect_garbage()
             disable_gc()
-            if mode == "read":
-                reads(n)
-            else:
-                bus_only(n)
+            # 16 reads between collections, as bench/rc_instructions.py: the aligned read's floats
+            # would otherwise leave the allocator searching a heap of garbage, and that search would be the count
+            loop = reads if mode == "read" else bus_only
+            for k in range(0, n, 16):
+                loop(min(16, n - k))
+                collect_garbage()
 
 
 def _instructions():
     import json
     import os
-    import re
-    import subprocess
+
+    from core_instructions import _count
 
     me = os.path.abspath(__file__)
     mp = os.path.join(os.path.dirname(sys.executable), "micropython")
@@ -221,10 +224,8 @@ def _instructions():
     for name in ("axis_map", "aligned", "board"):
         counts = {}
         for mode in ("read", "bus"):
-            err = subprocess.run(["valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null", mp,
-                                  "-X", "heapsize=8m", me, "--child", name, mode, str(N_COUNT)],
-                                 capture_output=True, text=True, env=env, check=True).stderr
-            counts[mode] = int(re.search(r"I\s+refs:\s+([\d,]+)", err).group(1).replace(",", ""))
+            # less the collections (bench/core_instructions.py's counter): the runs collect every 16 reads
+            counts[mode] = _count([mp, "-X", "heapsize=8m", me, "--child", name, mode, str(N_COUNT)], env)
         out[name + "_ir_per_read"] = round((counts["read"] - counts["bus"]) / N_COUNT)
     print(json.dumps(out))
 
