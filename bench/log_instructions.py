@@ -1,6 +1,6 @@
 """What logging at 1 kHz adds to a CPython flight pass, counted by callgrind instead of timed.
 
-Run: `.venv/bin/python bench/log_instructions.py` (needs `valgrind` on PATH; about a minute).
+Run: `.venv/bin/python bench/log_instructions.py` (needs `valgrind` on PATH; about two minutes).
 The timed figure (bench/log_loop.py) moves by ±0.5 µs on this shared host; instruction, cache
 miss and branch mispredict counts do not move at all, so they show what a change to the logger
 did. Each figure is per pass: a flight stepped 0 and 1000 passes after the same set-up (the one

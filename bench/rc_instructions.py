@@ -1,9 +1,9 @@
 """The receiver-to-setpoint path counted by callgrind instead of timed, on the MicroPython VM (and CPython).
 
 Run: `.venv/bin/python bench/rc_instructions.py [--cpython]` (needs `valgrind` and `.venv/bin/micropython`;
-about two minutes; --cpython counts the calls on CPython too). bench/rc_input.py times the same calls, but
-the shared host moves its µs by tens of percent from run to run; instruction counts do not move, so this is the
-figure to compare two versions by.
+about five minutes on this 2-core host; --cpython counts the calls on CPython too). bench/rc_input.py times the
+same calls, but the shared host moves its µs by tens of percent from run to run; instruction counts do not move,
+so this is the figure to compare two versions by.
 
 bench/core_loop.py's armed flight (armed_flight(): a CRSF frame on every second receiver poll, the
 roll stick at 1500/1507 µs in turn, so one axis always moves) and then, CALLS times, one of:
