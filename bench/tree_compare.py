@@ -2,7 +2,7 @@
 
 Run: `.venv/bin/python bench/tree_compare.py REV [--runs 6] [--heap 2m] [--instructions]`
 (REV: any commit, e.g. 5166070, the tree issue 26 was filed against; needs git and the MicroPython VM,
-`.venv/bin/micropython` or `micropython` on PATH).
+on PATH or next to this Python).
 
 A µs figure is a property of the host as much as of the code: on this shared 2-core host the same tree reads
 tens of per cent apart from one day to another. Two trees compared in alternate runs within the same minutes
@@ -25,18 +25,14 @@ passes_per_gc of its last run, and ir_per_pass with --instructions.
 import json
 import os
 import pathlib
-import shutil
 import subprocess
 import sys
 import tempfile
 
+from core_instructions import micropython_vm
+
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 KEYS = ("us_per_pass", "tasks_us_per_pass", "loop_us_per_pass")
-
-
-def _vm():
-    local = ROOT / ".venv" / "bin" / "micropython"
-    return str(local) if local.exists() else shutil.which("micropython")
 
 
 def _export(rev, dest):
@@ -91,9 +87,9 @@ def main(argv):
     rev = argv[0]
     runs = int(argv[argv.index("--runs") + 1]) if "--runs" in argv else 6
     heap = argv[argv.index("--heap") + 1] if "--heap" in argv else "2m"
-    vm = _vm()
+    vm = micropython_vm()
     if vm is None:
-        print("bench/tree_compare.py: no MicroPython VM (.venv/bin/micropython or micropython on PATH)",
+        print("bench/tree_compare.py: no MicroPython VM (micropython on PATH or next to this Python)",
               file=sys.stderr)
         return 1
     with tempfile.TemporaryDirectory() as tmp:

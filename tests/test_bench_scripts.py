@@ -16,11 +16,10 @@ Left out, for their time:
   and bridge_firmware --instructions have no child of their own (the plain runs are here);
 - bench/core_loop.py: tests/test_perf_rules.py runs it on the VM from source, and the bundle_loop case
   below from the flash bundle; its --rpm, --plane and --rx-core1 flights are left to a hand run;
-- bundle_heap (6 s: builds the 32-bit bundle and searches its heap), tree_compare (exports and builds a
-  second tree), and fuzz's server campaigns and soak's minutes (a parsers-only fuzz and a one-second soak
-  run here).
+- bundle_heap (6 s: builds the 32-bit bundle and searches its heap), and fuzz's server campaigns and soak's
+  minutes (a parsers-only fuzz and a one-second soak run here).
 
-The file takes about 45 s on the 2-core host: `.venv/bin/python -m pytest tests/test_bench_scripts.py -q
+The file takes about 50 s on the 2-core host: `.venv/bin/python -m pytest tests/test_bench_scripts.py -q
 -p no:cacheprovider`.
 """
 
@@ -368,3 +367,24 @@ def test_bundle_loop_runs_core_loop_and_its_counted_child_from_the_flash_bundle(
             "subprocess.run(b._child(%r) + ['--child', '5'], env=b._env(%r), check=True)"
             % (str(BENCH), MICROPYTHON, str(unix_bundle / "lib")))
     _ok(_run([sys.executable, "-c", code]))
+
+
+def test_tree_compare_runs_core_loop_in_this_tree_and_an_exported_one():
+    # HEAD against this checkout: the same code, so the same bytes a pass in both (the µs are the host's)
+    if MICROPYTHON is None:
+        pytest.skip("the MicroPython VM is not installed")
+    if subprocess.run(["git", "-C", str(ROOT), "rev-parse", "HEAD"], capture_output=True).returncode:
+        pytest.skip("not a git checkout: nothing to export")
+    keys = ("rev", "runs", "heap", "trees.HEAD", "trees.this")
+    result = _check(_python("tree_compare.py", "HEAD", "--runs", "1"), keys)
+    trees = result["trees"]
+    for tree in trees.values():
+        assert not _missing(tree, ("us_per_pass", "us_per_pass_median", "tasks_us_per_pass", "loop_us_per_pass",
+                                   "bytes_per_pass", "passes_per_gc")), sorted(tree)
+    assert trees["HEAD"]["bytes_per_pass"] == trees["this"]["bytes_per_pass"]
+
+
+def test_tree_compare_names_a_revision_git_cannot_export():
+    out = _python("tree_compare.py", "no-such-revision")
+    assert out.returncode == 1
+    assert "git cannot export" in out.stderr
